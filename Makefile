@@ -1,0 +1,32 @@
+# The README's two commands: `make demo` and `make test`. Both create/refresh
+# .venv only when the requirement files changed (stamp file), so they are
+# quick when nothing changed.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.drill_twin-installed
+REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt setup.py setup.cfg pyproject.toml
+
+.PHONY: venv demo test lint bench clean
+
+venv: $(STAMP)
+
+$(STAMP): $(REQS)
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q -c requirements/constraints.txt \
+		-r requirements/base.txt -r requirements/ros.txt -r requirements/dev.txt
+	$(PY) -m pip install -q --no-deps -e .
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m drill_twin.cli demo --out runs/demo
+
+test: $(STAMP)
+	$(PY) -m ruff check drill_twin test
+	$(PY) -m pytest -q
+
+lint: $(STAMP)
+	$(PY) -m ruff check drill_twin test
+
+clean:
+	rm -rf $(VENV) build install log runs *.egg-info

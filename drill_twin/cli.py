@@ -1,0 +1,220 @@
+"""``drill-twin``: the offline command-line tool.
+
+Sub-commands
+------------
+``simulate``   run a configuration, write the time series (npz), print a summary
+``params``     print the SI scales and every derived dimensionless group
+``stability``  characteristic roots / critical speed of the linearised model
+``demo``       the main job of ``make demo``: the benchmark run(s) with outputs
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .physics.parameters import ParameterError
+from .physics.scenario import Scenario, load_scenario
+from .physics.simulation import Simulation, SimulationDiverged
+from .physics.statistics import SERIES_UNITS, output_series, stick_slip_summary
+
+
+class _Progress:
+    """A minimal progress bar on stderr (only when it is a terminal, or forced)."""
+
+    def __init__(self, label: str, enabled: bool):
+        self.label = label
+        self.enabled = enabled
+        self.last = -1
+
+    def __call__(self, fraction: float):
+        if not self.enabled:
+            return
+        pct = int(100 * fraction)
+        if pct != self.last:
+            self.last = pct
+            bar = '#' * (pct // 4)
+            sys.stderr.write(f'\r{self.label} [{bar:<25}] {pct:3d}%')
+            if pct >= 100:
+                sys.stderr.write('\n')
+            sys.stderr.flush()
+
+
+def build_simulation(scenario: Scenario) -> Simulation:
+    sim = Simulation(scenario.model, scenario.groups, scenario.time_step)
+    sim.perturb(where=scenario.perturb_where, **scenario.initial_perturbation)
+    return sim
+
+
+def run_scenario(scenario: Scenario, duration=None, progress=None):
+    """Run a scenario; return (series in config units, wall seconds, simulation)."""
+    sim = build_simulation(scenario)
+    t0 = time.perf_counter()
+    traj = sim.run(duration or scenario.duration, scenario.record_interval, progress=progress)
+    wall = time.perf_counter() - t0
+    return output_series(scenario, traj), wall, sim
+
+
+def _duration(args, scenario: Scenario):
+    if args.duration is not None and args.tau is not None:
+        raise ParameterError('give --duration (seconds) or --tau (units of t*), not both')
+    if args.tau is not None:
+        return float(args.tau)
+    if args.duration is not None:
+        return float(args.duration) / scenario.time_unit_s
+    return scenario.duration
+
+
+def cmd_simulate(args) -> int:
+    scenario = load_scenario(args.config, args.set)
+    duration = _duration(args, scenario)
+    progress = _Progress('simulating', sys.stderr.isatty() and not args.summary_json)
+    series, wall, sim = run_scenario(scenario, duration, progress)
+    summary = stick_slip_summary(series, args.stats_from or 0.0)
+    summary.update({'model': scenario.model.name, 'units': 'si' if scenario.is_si else
+                    'dimensionless', 'simulated': float(series['time'][-1]),
+                    'wall_s': wall, 'events': sim.event_count,
+                    'history_overflows': sim.history_overflows})
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(out, **series, units=json.dumps(
+            {k: v[0 if scenario.is_si else 1] for k, v in SERIES_UNITS.items()}))
+        summary['output'] = str(out)
+    if args.summary_json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            print(f'{key:>22}: {value}')
+    return 0
+
+
+def cmd_params(args) -> int:
+    scenario = load_scenario(args.config, args.set)
+    g = scenario.groups
+    out = {'n_b': g.n_b, 'lambda': g.lam, 'n_b_lambda': g.n_b * g.lam, 'beta': g.beta,
+           'psi': g.psi, 'W_o': g.W_o, 'omega_o': g.omega_o, 'upsilon_o': g.upsilon_o,
+           'delta_o': g.delta_o, 'T_o': g.T_o, 'tau_10': g.tau_10, 'alpha_o': g.alpha_o,
+           'kappa_d': scenario.kappa_d}
+    if scenario.is_si:
+        s, sys_ = scenario.scales, scenario.system
+        out.update({'t_star_s': s.time_s, 'd_star_m': s.depth_m, 'W_star_N': s.force_N,
+                    'torque_scale_C_Nm': s.torque_Nm, 'T_star_zetaC_Nm': s.force_N *
+                    sys_.bit_radius_m / 2, 'bha_mass_kg': s.mass_kg,
+                    'bha_inertia_kgm2': s.inertia_kgm2,
+                    'drive_inertia_kgm2': sys_.drive_inertia_kgm2,
+                    'rate_of_penetration_m_s': g.upsilon_o * s.speed_m_s,
+                    'rate_of_penetration_m_h': g.upsilon_o * s.speed_m_s * 3600,
+                    'G_u': (sys_.pipe_length_m + sys_.bha_length_m) ** 2 / s.time_s ** 2
+                    * sys_.density_kg_m3 / sys_.young_modulus_Pa,
+                    'G_phi': (sys_.pipe_length_m + sys_.bha_length_m) ** 2 / s.time_s ** 2
+                    * sys_.density_kg_m3 / sys_.shear_modulus_Pa})
+    print(json.dumps(out, indent=None if args.json else 2))
+    return 0
+
+
+def cmd_stability(args) -> int:
+    from .stability.spectrum import critical_speed, rightmost_roots
+    scenario = load_scenario(args.config, args.set)
+    if args.action == 'roots':
+        res = rightmost_roots(scenario.model, scenario.groups, count=args.count)
+        out = {'abscissa': res.abscissa, 'roots': [[z.real, z.imag] for z in res.roots],
+               'error_estimate': res.error_estimate, 'order': res.order}
+    else:
+        wc = critical_speed(scenario.model, scenario.groups, args.omega_min, args.omega_max)
+        out = {'critical_omega': wc, 'critical_surface_speed_rad_s':
+               (wc / scenario.time_unit_s if wc is not None else None)}
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for key, value in out.items():
+            print(f'{key:>28}: {value}')
+    return 0
+
+
+def cmd_demo(args) -> int:
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for name, overrides in (('benchmark_fem', []),
+                            ('benchmark_fem_soft_torque', ['model.top_drive=soft_torque'])):
+        scenario = load_scenario('benchmark_fem', overrides)
+        series, wall, _ = run_scenario(scenario, progress=_Progress(name, sys.stderr.isatty()))
+        path = out / f'{name}.npz'
+        np.savez_compressed(path, **series)
+        summary = stick_slip_summary(series, 0.0)
+        summary['wall_s'] = wall
+        summary['real_time_factor'] = float(series['time'][-1]) / wall
+        results[name] = summary
+        print(f'{name}: {summary["samples"]} samples, first angular stick at '
+              f'{summary["first_angular_stick"]} s, stick fraction '
+              f'{summary["stick_fraction"]:.3f}, {summary["real_time_factor"]:.0f}x real time'
+              f' -> {path}')
+    (out / 'summary.json').write_text(json.dumps(results, indent=2))
+    try:
+        from .plotting import plot_bit_velocities
+        png = out / 'benchmark_fem.png'
+        plot_bit_velocities({k: np.load(out / f'{k}.npz') for k in results}, png)
+        print(f'plot -> {png}')
+    except ImportError:  # pragma: no cover - matplotlib is a hard dependency
+        pass
+    print(f'outputs in {out.resolve()}')
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog='drill-twin', description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest='command', required=True)
+
+    def common(sp):
+        sp.add_argument('--config', required=True,
+                        help='YAML file, or a name in config/ (e.g. benchmark_fem)')
+        sp.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
+                        help='override a configuration value (dotted key), repeatable')
+
+    s = sub.add_parser('simulate', help='run a configuration')
+    common(s)
+    s.add_argument('--duration', type=float, help='simulated time [s] (SI configs)')
+    s.add_argument('--tau', type=float, help='simulated time in units of t*')
+    s.add_argument('--out', help='write the time series to this .npz file')
+    s.add_argument('--summary-json', action='store_true', help='print one JSON summary')
+    s.add_argument('--stats-from', type=float, default=0.0,
+                   help='statistics window start, in the configuration time unit')
+    s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser('params', help='print derived scales and dimensionless groups')
+    common(s)
+    s.add_argument('--json', action='store_true')
+    s.set_defaults(func=cmd_params)
+
+    s = sub.add_parser('stability', help='linear stability of the steady state')
+    s.add_argument('action', choices=['roots', 'critical-speed'])
+    common(s)
+    s.add_argument('--json', action='store_true')
+    s.add_argument('--count', type=int, default=6, help='number of rightmost roots')
+    s.add_argument('--omega-min', type=float, default=0.5)
+    s.add_argument('--omega-max', type=float, default=50.0)
+    s.set_defaults(func=cmd_stability)
+
+    s = sub.add_parser('demo', help='the make-demo job: benchmark with and without Soft-Torque')
+    s.add_argument('--out', default='runs/demo')
+    s.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ParameterError, SimulationDiverged, ValueError) as exc:
+        print(f'drill-twin: error: {exc}', file=sys.stderr)
+        return 2
+
+
+if __name__ == '__main__':
+    sys.exit(main())

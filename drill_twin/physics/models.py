@@ -1,0 +1,275 @@
+"""Drill-string models as chains of dimensionless mass/spring/dash-pot matrices.
+
+Every model of the thesis is one instance of the same perturbation equations
+(time τ = t/t*, axial displacement u = (U-U_o)/d*, angle φ = Φ-Φ_o):
+
+    M_a u'' + C_a u' + K_a u = e_0 (k_a^top u_p + c_a^top u_p' + f_top) - ψ (W - W_o) e_bit
+    M_t φ'' + C_t φ' + K_t φ = e_0 (k_t^top θ_p + c_t^top θ_p' + m_t^top θ_p'') - (T - T_o) e_bit
+
+where the bit is the *last* degree of freedom, ``e_0`` the first one, and
+``θ_p`` the perturbation of the prescribed (motor / surface) angle to which
+the first DOF is tied (by a string element or by the Soft-Torque spring
+``k_f`` and dash-pot ``c_f``).  Masses are in units of the reference mass
+(BHA mass M for the SI models), inertias in units of I, stiffnesses in units of
+M/t*² (axial) and C (torsional).  All matrices are tridiagonal (chains), stored
+as ``(lower, diag, upper)`` rows.
+
+Derivations
+-----------
+* Lumped chain (eqs 4.2.1, 4.3.1, 4.4.1, 5.1.1): mass i between springs k_i
+  (above) and k_{i+1} (below): row i of K is ``[-k_i, k_i + k_{i+1}, -k_{i+1}]``;
+  the top spring k_1 ties DOF 0 to the prescribed top (entry ``k^top = k_1``).
+* Finite elements (App. A, re-derived): linear elements of length h on
+  ``ρA U'' - (EA U')' = 0`` give ``K_e = EA/h [[1,-1],[-1,1]]`` and consistent
+  ``M_e = ρAh/6 [[2,1],[1,2]]``; torsion likewise with GJ and ρJ.  Rayleigh
+  damping ``C = η M + ϑ K`` in dimensionless units (ϑ multiplies the
+  dimensionless stiffness, so it is a time in units of t*).  A prescribed top
+  node is eliminated: its coupling column becomes ``k^top = -K_{10}``,
+  ``c^top = -C_{10}``, ``m^top = -M_{10}``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .parameters import DrillStringSI, ParameterError, soft_torque_tuning
+
+__all__ = ['Chain', 'StringModel', 'lumped_chain', 'fem_chain', 'rgd', 'rgd_k',
+           'axial_chain', 'coupled_chain', 'fem_drill_string']
+
+
+@dataclass
+class Chain:
+    """One tridiagonal mass/damping/stiffness chain (axial or torsional).
+
+    ``mass``, ``damping``, ``stiffness`` have shape (3, n): rows lower, diag,
+    upper (``lower[0]`` and ``upper[-1]`` unused).  ``k_top``, ``c_top``,
+    ``m_top`` couple DOF 0 to the prescribed top motion.
+    """
+
+    mass: np.ndarray
+    damping: np.ndarray
+    stiffness: np.ndarray
+    k_top: float = 0.0
+    c_top: float = 0.0
+    m_top: float = 0.0
+
+    @property
+    def n(self) -> int:
+        return self.mass.shape[1]
+
+    def dense(self, which: str) -> np.ndarray:
+        tri = getattr(self, which)
+        n = self.n
+        out = np.diag(tri[1])
+        if n > 1:
+            out += np.diag(tri[0, 1:], -1) + np.diag(tri[2, :-1], 1)
+        return out
+
+
+@dataclass
+class StringModel:
+    """A complete drill-string model: axial chain, torsional chain, bit scale.
+
+    ``torsional`` may be ``None`` (axial-only chains of ch. 4: the bit turns at
+    the imposed constant speed).  ``psi`` multiplies the bit force in the axial
+    equation.  ``name`` is for reports.
+    """
+
+    name: str
+    axial: Chain
+    torsional: Chain | None
+    psi: float
+
+
+def _tri_from_dense(A: np.ndarray) -> np.ndarray:
+    n = A.shape[0]
+    tri = np.zeros((3, n))
+    tri[1] = np.diag(A)
+    if n > 1:
+        tri[0, 1:] = np.diag(A, -1)
+        tri[2, :-1] = np.diag(A, 1)
+    return tri
+
+
+def lumped_chain(masses, springs, damping=None, top_fixed=True) -> Chain:
+    """Chain of point masses ``masses[i]`` joined by springs.
+
+    ``springs[0]`` ties mass 0 to the prescribed top (ignored when
+    ``top_fixed`` is False: free top, e.g. constant hook load), ``springs[i]``
+    joins masses i-1 and i.  ``damping`` (optional) has the same layout as
+    dash-pots.
+    """
+    m = np.asarray(masses, float)
+    k = np.asarray(springs, float)
+    n = m.size
+    if k.size != n:
+        raise ParameterError('need one spring per mass (springs[0] is the top spring)')
+    if np.any(~np.isfinite(m)) or np.any(m <= 0):
+        raise ParameterError('masses must be finite and > 0')
+    if np.any(~np.isfinite(k)) or np.any(k[1:] <= 0) or (top_fixed and k[0] <= 0):
+        raise ParameterError('stiffnesses must be finite and > 0')
+
+    def tri(coef):
+        t = np.zeros((3, n))
+        top = coef[0] if top_fixed else 0.0
+        t[1, 0] = top
+        for i in range(1, n):
+            t[1, i - 1] += coef[i]
+            t[1, i] += coef[i]
+            t[2, i - 1] = -coef[i]
+            t[0, i] = -coef[i]
+        return t
+
+    c = np.zeros(n) if damping is None else np.asarray(damping, float)
+    M = np.zeros((3, n))
+    M[1] = m
+    return Chain(mass=M, damping=tri(c), stiffness=tri(k),
+                 k_top=float(k[0]) if top_fixed else 0.0,
+                 c_top=float(c[0]) if top_fixed else 0.0)
+
+
+def fem_chain(element_lengths, stiffness_per_length, mass_per_length, eta, theta,
+              top_fixed, top_mass=0.0, top_spring=0.0, top_dashpot=0.0) -> Chain:
+    """Linear finite elements with consistent mass and Rayleigh damping.
+
+    Parameters
+    ----------
+    element_lengths : array (n_el,)
+        Element lengths (any consistent unit; only products matter).
+    stiffness_per_length : array (n_el,)
+        EA (or GJ) of each element in units such that ``EA/h`` is the
+        dimensionless element stiffness.
+    mass_per_length : array (n_el,)
+        ρA (or ρJ) of each element, so that ``ρA h`` is its dimensionless mass.
+    eta, theta : float
+        Rayleigh coefficients, ``C = eta*M + theta*K``.
+    top_fixed : bool
+        True: the top node is prescribed and eliminated.  False: it is free.
+    top_mass, top_spring, top_dashpot : float
+        Extra lumped mass on the top node and a spring/dash-pot tying it to
+        the prescribed motion (the Soft-Torque drive).  Only for a free top.
+    """
+    h = np.asarray(element_lengths, float)
+    ea = np.asarray(stiffness_per_length, float)
+    ra = np.asarray(mass_per_length, float)
+    n_nodes = h.size + 1
+    K = np.zeros((n_nodes, n_nodes))
+    M = np.zeros((n_nodes, n_nodes))
+    for e in range(h.size):
+        ke = ea[e] / h[e]
+        me = ra[e] * h[e] / 6.0
+        K[e:e + 2, e:e + 2] += ke * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        M[e:e + 2, e:e + 2] += me * np.array([[2.0, 1.0], [1.0, 2.0]])
+    M[0, 0] += top_mass
+    C = eta * M + theta * K
+    K[0, 0] += top_spring
+    C[0, 0] += top_dashpot
+    if top_fixed:
+        chain = Chain(mass=_tri_from_dense(M[1:, 1:]), damping=_tri_from_dense(C[1:, 1:]),
+                      stiffness=_tri_from_dense(K[1:, 1:]), k_top=-K[1, 0],
+                      c_top=-C[1, 0], m_top=-M[1, 0])
+    else:
+        chain = Chain(mass=_tri_from_dense(M), damping=_tri_from_dense(C),
+                      stiffness=_tri_from_dense(K), k_top=top_spring, c_top=top_dashpot)
+    return chain
+
+
+# --- the thesis's models ---------------------------------------------------------------
+
+def rgd(psi: float) -> StringModel:
+    """RGD model (eqs 4.1.1-4.1.2): mass on a constant hook load, torsional pendulum.
+
+    Axial ``u'' = -ψ (W - W_o)``; torsional ``φ'' + φ = -(T - T_o)``.
+    """
+    return StringModel('rgd', lumped_chain([1.0], [0.0], top_fixed=False),
+                       lumped_chain([1.0], [1.0]), float(psi))
+
+
+def rgd_k(psi: float, kappa_d: float) -> StringModel:
+    """RGD with an axial spring κ_d to an imposed surface axial velocity ([11], §4.1)."""
+    return StringModel('rgd_k', lumped_chain([1.0], [kappa_d]),
+                       lumped_chain([1.0], [1.0]), float(psi))
+
+
+def _split(n: int, eps: float | None, eps2: float | None = None):
+    """Mass (ε1) and stiffness (ε2) fractions of eq. 4.4.1 for N oscillators."""
+    if n < 1:
+        raise ParameterError(f'number of oscillators must be >= 1, got {n}')
+    eps1 = 1.0 / n if eps is None else float(eps)
+    eps2 = eps1 if eps2 is None else float(eps2)
+    for name, e in (('eps', eps1), ('eps2', eps2)):
+        if n > 1 and not 0.0 < (n - 1) * e < 1.0:
+            raise ParameterError(f'{name} must satisfy 0 < (N-1)*{name} < 1, got {e}')
+    mass = np.full(n, eps1)
+    mass[-1] = 1.0 - (n - 1) * eps1
+    compliance = np.full(n, eps2)
+    compliance[-1] = 1.0 - (n - 1) * eps2
+    return mass, compliance
+
+
+def axial_chain(n: int, kappa_d: float, psi: float, eps: float | None = None,
+                eps2: float | None = None) -> StringModel:
+    """N axial oscillators of eqs 4.2.1 / 4.3.1 / 4.4.1 (constant rotation).
+
+    Total mass 1 and total (series) stiffness κ_d are kept: masses ε1 (last
+    1-(N-1)ε1), spring compliances ε2/κ_d (last (1-(N-1)ε2)/κ_d).  The top is
+    an imposed axial velocity.  With time scaled so that the delay is 1, the
+    1-DOF limit is ``u'' + a u - b u(t-1) = 0`` with ``a = κ_d + n_b ψ`` and
+    ``b = n_b ψ``.
+    """
+    mass, compliance = _split(n, eps, eps2)
+    return StringModel(f'axial_chain_{n}', lumped_chain(mass, kappa_d / compliance), None,
+                       float(psi))
+
+
+def coupled_chain(n: int, kappa_d: float, psi: float, axial_top: str = 'velocity') -> StringModel:
+    """N identical axial + N identical torsional oscillators (RGD-2 for n=2, eq. 5.1.1).
+
+    Masses M/N with springs N k, inertias I/N with springs N C, so the total
+    mass, inertia and compliances are those of the RGD model.
+    """
+    mass, compliance = _split(n, None)
+    top_fixed = axial_top == 'velocity'
+    if axial_top not in ('velocity', 'hook_load'):
+        raise ParameterError(f"axial_top must be 'velocity' or 'hook_load', got {axial_top!r}")
+    return StringModel(f'coupled_chain_{n}',
+                       lumped_chain(mass, kappa_d / compliance, top_fixed=top_fixed),
+                       lumped_chain(mass, 1.0 / compliance), float(psi))
+
+
+def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: int = 10,
+                     theta_u: float = 5e-4, theta_phi: float = 1e-4, eta_u: float = 0.0,
+                     eta_phi: float = 0.0, top_drive: str = 'speed') -> StringModel:
+    """Finite-element drill string of App. A / §3.2 (drill pipe + BHA).
+
+    Axial top: constant hook load (free node).  Torsional top: ``'speed'``
+    (prescribed surface speed, node eliminated) or ``'soft_torque'`` (drive
+    inertia I_DS on the top node tied to the motor by the tuned k_f, c_f).
+    Units: masses / M_BHA, inertias / I_BHA, stiffnesses / (M_BHA/t*²) and C.
+    """
+    if elements < 2 or bha_elements < 1 or bha_elements >= elements:
+        raise ParameterError('need elements >= 2 and 1 <= bha_elements < elements')
+    s = system.scales()
+    n_dp = elements - bha_elements
+    h = np.concatenate([np.full(n_dp, system.pipe_length_m / n_dp),
+                        np.full(bha_elements, system.bha_length_m / bha_elements)])
+    is_bha = np.arange(elements) >= n_dp
+    area = np.where(is_bha, system.bha_area_m2, system.pipe_area_m2)
+    polar = np.where(is_bha, system.bha_polar_m4, system.pipe_polar_m4)
+    t2 = s.time_s ** 2
+    axial = fem_chain(h, system.young_modulus_Pa * area * t2 / s.mass_kg,
+                      system.density_kg_m3 * area / s.mass_kg, eta_u, theta_u, top_fixed=False)
+    gj = system.shear_modulus_Pa * polar / s.torque_Nm
+    rj = system.density_kg_m3 * polar / s.inertia_kgm2
+    if top_drive == 'speed':
+        tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=True)
+    elif top_drive == 'soft_torque':
+        st = soft_torque_tuning(system.drive_inertia_kgm2 / s.inertia_kgm2)
+        tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=False,
+                         top_mass=st['inertia'], top_spring=st['stiffness'],
+                         top_dashpot=st['damping'])
+    else:
+        raise ParameterError(f"top_drive must be 'speed' or 'soft_torque', got {top_drive!r}")
+    return StringModel(f'fem_{elements}', axial, tors, system.psi)

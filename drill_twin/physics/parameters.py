@@ -1,0 +1,332 @@
+"""Drilling-system parameters, characteristic scales and dimensionless groups.
+
+Everything dimensionless in drill_twin is *derived here, in code*, from one
+consistent SI parameter set (or given directly for the dimensionless research
+configurations of thesis chapters 4-5).  See ``docs/parameters.md`` for the
+resolution of the inconsistencies of thesis Table D.1.1.
+
+Derivation (thesis §2.2-2.4, re-derived from momentum balance)
+---------------------------------------------------------------
+Bit/rock law of Detournay & Defourny (eqs 2.2.6-2.2.9), ``d`` depth of cut per
+blade, ``g`` the wear-flat contact indicator (1 while the bit moves down):
+
+    W = n_b ζ ε a d + n_b a ℓ σ_f g ,     T = ½ n_b ε a² d + ½ n_b a² μ γ ℓ σ_f g .
+
+Torsional pendulum of the RGD model, ``I Φ'' + C (Φ - Ω_o t) = -T``.  Dividing
+by ``C`` and scaling time by ``t* = sqrt(I/C)`` (eq. 2.4.1) gives
+``Φ'' + (Φ - ω_o τ) = -T/C`` with
+
+    T/C = n_b d / d* + n_b λ β g ,    d* = 2C/(ε a²),  λ = ℓ a² σ_f/(2 ζ C),  β = μ γ ζ.
+
+So the torque unit that makes eq. 2.4.6 (T_o = n_b(δ_o + λβ)) true is ``C``
+(N·m per radian), i.e. ``T* = ζ C`` of eq. 2.4.1 differs from it by ``ζ``: we use
+``torque_scale = C`` and say so.  The axial balance of a mass ``M`` under a
+constant hook load, ``M U'' = W_o - W``, scaled by ``d*`` and ``t*`` gives
+``u'' = ψ (W_o - W)/W*`` with ``W* = ζ ε a d* = 2 ζ C / a`` and
+``ψ = ζ ε a t*² / M`` (the axial/torsional time-scale ratio of the RGD model).
+
+Steady state (eqs 2.3.6, 2.4.5, 2.4.6): constant Ω_o, constant V_o, all blades
+see the same depth of cut ``δ_o = (W_o - n_b λ)/n_b`` (only if W_o > n_b λ),
+``υ_o = n_b δ_o ω_o /(2π)``, ``τ_1,0 = 2π/(n_b ω_o)``,
+``T_o = n_b (δ_o + λ β)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+__all__ = [
+    'ParameterError', 'BitRockGroups', 'DrillStringSI', 'Scales',
+    'steady_state', 'soft_torque_tuning',
+]
+
+
+class ParameterError(ValueError):
+    """A drilling parameter is missing, non-finite or physically impossible."""
+
+
+def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f'{name} must be a number, got {value!r}') from exc
+    if not math.isfinite(value):
+        raise ParameterError(f'{name} must be finite, got {value!r}')
+    if value < 0 or (value == 0 and not allow_zero):
+        bound = '>= 0' if allow_zero else '> 0'
+        raise ParameterError(f'{name} must be {bound}, got {value!r}')
+    return value
+
+
+@dataclass(frozen=True)
+class BitRockGroups:
+    """Dimensionless groups of the bit/rock interface at one operating point.
+
+    Parameters
+    ----------
+    n_b : int
+        Number of blades (>= 1).
+    lam : float
+        Bluntness number λ (eq. 2.4.4); ``n_b*lam`` is the dimensionless
+        wear-flat contact force.
+    beta : float
+        Bit/rock interaction number β = μγζ (eq. 2.4.4).
+    W_o : float
+        Dimensionless weight on bit W_o/W* (eq. 2.4.6).  Must exceed ``n_b*lam``
+        (eq. 2.3.6: otherwise all weight is taken by friction, no drilling).
+    omega_o : float
+        Dimensionless surface/bit angular speed Ω_o t* (eq. 2.4.5).
+    psi : float
+        Axial force scale ψ: the bit-force coefficient of the axial equation
+        of motion, normalised by the reference (BHA) mass.
+    """
+
+    n_b: int
+    lam: float
+    beta: float
+    W_o: float
+    omega_o: float
+    psi: float
+
+    def __post_init__(self):
+        if isinstance(self.n_b, float) and not float(self.n_b).is_integer():
+            raise ParameterError(f'n_b must be an integer number of blades, got {self.n_b!r}')
+        if not isinstance(self.n_b, (int, float)) or self.n_b < 1:
+            raise ParameterError(f'n_b must be >= 1, got {self.n_b!r}')
+        object.__setattr__(self, 'n_b', int(self.n_b))
+        _check_positive('lam', self.lam, allow_zero=True)
+        _check_positive('beta', self.beta, allow_zero=True)
+        _check_positive('omega_o', self.omega_o)
+        _check_positive('psi', self.psi)
+        _check_positive('W_o', self.W_o)
+        if self.W_o <= self.n_b * self.lam:
+            raise ParameterError(
+                f'W_o = {self.W_o:g} does not exceed the wear-flat friction threshold '
+                f'n_b*lam = {self.n_b * self.lam:g} (eq. 2.3.6): the bit does not drill')
+
+    # --- steady state, eqs 2.3.6, 2.4.5, 2.4.6 -------------------------------------
+    @property
+    def delta_o(self) -> float:
+        """Steady depth of cut per blade δ_o = (W_o - n_b λ)/n_b (eq. 2.4.6)."""
+        return (self.W_o - self.n_b * self.lam) / self.n_b
+
+    @property
+    def upsilon_o(self) -> float:
+        """Steady axial speed υ_o = ω_o (W_o - n_b λ)/(2π) (eq. 2.4.5)."""
+        return self.omega_o * (self.W_o - self.n_b * self.lam) / (2.0 * math.pi)
+
+    @property
+    def T_o(self) -> float:
+        """Steady torque on bit T_o = n_b (δ_o + λβ) in units of C (eq. 2.4.6)."""
+        return self.n_b * (self.delta_o + self.lam * self.beta)
+
+    @property
+    def tau_10(self) -> float:
+        """Steady delay τ_1,0 = 2π/(n_b ω_o) (eq. 2.4.5)."""
+        return 2.0 * math.pi / (self.n_b * self.omega_o)
+
+    @property
+    def alpha_o(self) -> float:
+        """Ratio α_o = υ_o/ω_o that couples delay and axial motion (§5.1)."""
+        return self.upsilon_o / self.omega_o
+
+    def replace(self, **changes) -> BitRockGroups:
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values.update(changes)
+        return BitRockGroups(**values)
+
+
+def steady_state(groups: BitRockGroups) -> dict:
+    """Steady drilling state (eqs 2.3.6, 2.4.5, 2.4.6) as a dict of floats."""
+    return {'delta_o': groups.delta_o, 'upsilon_o': groups.upsilon_o, 'W_o': groups.W_o,
+            'T_o': groups.T_o, 'tau_10': groups.tau_10, 'alpha_o': groups.alpha_o,
+            'omega_o': groups.omega_o}
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Characteristic quantities of eq. 2.4.1 (SI).
+
+    Attributes
+    ----------
+    time_s : t* = sqrt(I/C) [s]
+    depth_m : d* = 2C/(εa²) [m]
+    force_N : W* = ζ ε a d* [N]
+    torque_Nm : C, the torque per radian that makes eq. 2.4.6 exact [N·m]
+    mass_kg : reference mass (BHA mass) [kg]
+    inertia_kgm2 : reference polar inertia I (BHA) [kg·m²]
+    """
+
+    time_s: float
+    depth_m: float
+    force_N: float
+    torque_Nm: float
+    mass_kg: float
+    inertia_kgm2: float
+
+    @property
+    def speed_m_s(self) -> float:
+        return self.depth_m / self.time_s
+
+
+@dataclass(frozen=True)
+class DrillStringSI:
+    """One consistent SI description of a drilling system (thesis App. D, §2.2.1).
+
+    All lengths in m, areas in m², polar second moments in m⁴, moduli and
+    stresses in Pa, densities in kg/m³, masses in kg, speeds in rad/s,
+    forces in N.  Cross-sections are computed from outer/inner radii so
+    that areas and polar moments are mutually consistent.
+    """
+
+    pipe_length_m: float = 1000.0
+    bha_length_m: float = 200.0
+    pipe_outer_radius_m: float = 0.0635
+    pipe_inner_radius_m: float = 0.053975
+    bha_outer_radius_m: float = 0.0762
+    bha_inner_radius_m: float = 0.0286
+    density_kg_m3: float = 8000.0
+    young_modulus_Pa: float = 200e9
+    shear_modulus_Pa: float = 77e9
+    bit_radius_m: float = 0.10795
+    blades: int = 6
+    intrinsic_specific_energy_Pa: float = 60e6
+    contact_stress_Pa: float = 60e6
+    wear_flat_length_m: float = 1.3e-3
+    cutting_force_ratio_zeta: float = 0.6
+    friction_coefficient_mu: float = 0.6
+    bit_geometry_gamma: float = 1.0
+    drive_mass_kg: float = 18160.0
+    drive_width_m: float = 1.867
+    drive_depth_m: float = 1.722
+    extra: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        for f in fields(self):
+            if f.name in ('extra', 'blades'):
+                continue
+            _check_positive(f.name, getattr(self, f.name))
+        if int(self.blades) != self.blades or self.blades < 1:
+            raise ParameterError(f'blades must be an integer >= 1, got {self.blades!r}')
+        if self.pipe_inner_radius_m >= self.pipe_outer_radius_m:
+            raise ParameterError('pipe_inner_radius_m must be smaller than pipe_outer_radius_m')
+        if self.bha_inner_radius_m >= self.bha_outer_radius_m:
+            raise ParameterError('bha_inner_radius_m must be smaller than bha_outer_radius_m')
+
+    # --- section properties -------------------------------------------------------
+    @staticmethod
+    def _area(ro, ri):
+        return math.pi * (ro ** 2 - ri ** 2)
+
+    @staticmethod
+    def _polar(ro, ri):
+        return 0.5 * math.pi * (ro ** 4 - ri ** 4)
+
+    @property
+    def pipe_area_m2(self):
+        return self._area(self.pipe_outer_radius_m, self.pipe_inner_radius_m)
+
+    @property
+    def bha_area_m2(self):
+        return self._area(self.bha_outer_radius_m, self.bha_inner_radius_m)
+
+    @property
+    def pipe_polar_m4(self):
+        return self._polar(self.pipe_outer_radius_m, self.pipe_inner_radius_m)
+
+    @property
+    def bha_polar_m4(self):
+        return self._polar(self.bha_outer_radius_m, self.bha_inner_radius_m)
+
+    @property
+    def bha_mass_kg(self):
+        return self.density_kg_m3 * self.bha_area_m2 * self.bha_length_m
+
+    @property
+    def bha_inertia_kgm2(self):
+        """BHA polar mass moment of inertia I = ρ J_b L_b [kg·m²]."""
+        return self.density_kg_m3 * self.bha_polar_m4 * self.bha_length_m
+
+    @property
+    def pipe_torsional_stiffness_Nm(self):
+        """Drill-pipe torsional stiffness C = G J_d / L_d [N·m/rad] (eq. 2.4.1)."""
+        return self.shear_modulus_Pa * self.pipe_polar_m4 / self.pipe_length_m
+
+    @property
+    def pipe_axial_stiffness_N_m(self):
+        """Drill-pipe axial stiffness E A_d / L_d [N/m]."""
+        return self.young_modulus_Pa * self.pipe_area_m2 / self.pipe_length_m
+
+    @property
+    def drive_inertia_kgm2(self):
+        """Top-drive inertia I_DS = M_DS (l1² + l2²)/12 [kg·m²] (§2.2.1)."""
+        return self.drive_mass_kg * (self.drive_width_m ** 2 + self.drive_depth_m ** 2) / 12.0
+
+    # --- characteristic scales, eq. 2.4.1 ---------------------------------------
+    def scales(self) -> Scales:
+        C = self.pipe_torsional_stiffness_Nm
+        inertia = self.bha_inertia_kgm2
+        t_star = math.sqrt(inertia / C)
+        d_star = 2.0 * C / (self.intrinsic_specific_energy_Pa * self.bit_radius_m ** 2)
+        W_star = self.cutting_force_ratio_zeta * self.intrinsic_specific_energy_Pa \
+            * self.bit_radius_m * d_star
+        return Scales(time_s=t_star, depth_m=d_star, force_N=W_star, torque_Nm=C,
+                      mass_kg=self.bha_mass_kg, inertia_kgm2=inertia)
+
+    @property
+    def lam(self) -> float:
+        """Bluntness number λ = ℓ a² σ_f /(2 ζ C) (eq. 2.4.4)."""
+        return (self.wear_flat_length_m * self.bit_radius_m ** 2 * self.contact_stress_Pa
+                / (2.0 * self.cutting_force_ratio_zeta * self.pipe_torsional_stiffness_Nm))
+
+    @property
+    def beta(self) -> float:
+        """β = μ γ ζ (eq. 2.4.4)."""
+        return self.friction_coefficient_mu * self.bit_geometry_gamma \
+            * self.cutting_force_ratio_zeta
+
+    @property
+    def psi(self) -> float:
+        """ψ = ζ ε a t*² / M_BHA: axial bit-force coefficient for the BHA mass."""
+        s = self.scales()
+        return s.force_N * s.time_s ** 2 / (s.mass_kg * s.depth_m)
+
+    @property
+    def kappa_d(self) -> float:
+        """κ_d = t*² E A_d /(L_d M_BHA): squared ratio of t* to the pipe axial period."""
+        s = self.scales()
+        return s.time_s ** 2 * self.pipe_axial_stiffness_N_m / s.mass_kg
+
+    def groups(self, surface_speed_rad_s: float, weight_on_bit_N: float) -> BitRockGroups:
+        """Dimensionless groups at an operating point (Ω_o [rad/s], W_o [N])."""
+        _check_positive('surface_speed_rad_s', surface_speed_rad_s)
+        _check_positive('weight_on_bit_N', weight_on_bit_N)
+        s = self.scales()
+        return BitRockGroups(n_b=int(self.blades), lam=self.lam, beta=self.beta,
+                             W_o=weight_on_bit_N / s.force_N,
+                             omega_o=surface_speed_rad_s * s.time_s, psi=self.psi)
+
+
+def soft_torque_tuning(drive_inertia_ratio: float) -> dict:
+    """Soft-Torque spring and dash-pot in dimensionless form (§3.2, after [37]).
+
+    The drive (inertia ``I_DS``) on its spring ``k_f`` is tuned to the string's
+    first torsional frequency 1/t*: ``k_f = I_DS/t*²``.  With
+    ``Γ = I/I_DS`` the optimal damping ratio is ``ξ_opt = sqrt(Γ/2)`` and
+    the dash-pot is ``c_f = 2 ξ_opt sqrt(k_f I_DS) = 2 ξ_opt I_DS/t*``.  (The
+    printed ``c_f = I_DS/2ξ_opt`` is dimensionally wrong.)  In units of ``C`` and
+    ``t*`` (inertias divided by the BHA inertia ``I``):
+
+    Parameters
+    ----------
+    drive_inertia_ratio : float
+        I_DS / I (dimensionless).
+
+    Returns
+    -------
+    dict with ``inertia`` (I_DS/I), ``stiffness`` (k_f/C), ``damping``
+    (c_f/(C t*)), ``xi_opt``.
+    """
+    r = _check_positive('drive_inertia_ratio', drive_inertia_ratio)
+    xi = math.sqrt(1.0 / r / 2.0)
+    return {'inertia': r, 'stiffness': r, 'damping': 2.0 * xi * r, 'xi_opt': xi}

@@ -1,0 +1,42 @@
+"""ament_python setup for drill_twin (layout after ros2/demos demo_nodes_py)."""
+from glob import glob
+import os
+
+from setuptools import find_packages, setup
+
+package_name = 'drill_twin'
+
+
+def _requirements(name):
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'requirements', name)
+    with open(path) as handle:
+        return [line.split('#')[0].strip() for line in handle
+                if line.split('#')[0].strip()]
+
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+    ],
+    package_data={package_name: ['data/*.yaml']},
+    include_package_data=True,
+    install_requires=_requirements('base.txt'),
+    extras_require={'ros': _requirements('ros.txt'), 'test': _requirements('dev.txt')},
+    zip_safe=True,
+    maintainer='drill_twin maintainers',
+    maintainer_email='drill-twin@example.com',
+    description='ROS 2 digital twin of a deep drilling system (drill-string dynamics).',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'drill-twin = drill_twin.cli:main',
+        ],
+    },
+)
