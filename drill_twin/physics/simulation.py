@@ -156,6 +156,15 @@ class Simulation:
         if self.groups.upsilon_o + self.x[sl['v'].stop - 1] < 0:
             self.mode[K.MD_AX] = K.AX_UP
 
+    def set_perturbation_state(self, y):
+        """Set the perturbation state ``[u, u', φ, φ']`` of all DOFs (the layout of
+        :func:`drill_twin.stability.linearize.linearize`)."""
+        y = np.asarray(y, float)
+        n = 2 * self.n_axial + 2 * self.n_torsional
+        if y.shape != (n,) or not np.all(np.isfinite(y)):
+            raise ParameterError(f'perturbation state must be {n} finite numbers')
+        self.x[:n] = y
+
     def set_surface_speed(self, omega: float):
         """Command the dimensionless surface (motor) speed."""
         if not (math.isfinite(omega) and omega >= 0):

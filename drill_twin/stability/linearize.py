@@ -1,0 +1,89 @@
+"""Linearisation of any drill-string model about steady drilling (thesis §5.1-5.2).
+
+Derivation
+----------
+About the steady state (bit moving down, in contact, slipping) the wear-flat
+force is constant (W_f = n_b λ), so only the cutting term varies.  With the
+total delay τ_1 = τ_1,0 + τ̂ and eq. 2.4.14 linearised,
+``ω_o τ̂ = φ_b(τ - τ_1,0) - φ_b(τ)``, the depth-of-cut perturbation is
+
+    δ̂ = u_b(τ) - u_b(τ-τ_1,0) + υ_o τ̂
+       = u_b - u_b(τ-τ_1,0) - α_o φ_b + α_o φ_b(τ-τ_1,0),      α_o = υ_o/ω_o
+
+(the ``u_b(τ-τ_1)`` shift by τ̂ is of second order because ``u_b' `` is a
+perturbation).  Both W - W_o and T - T_o equal ``n_b δ̂`` (units W* and C).
+With ``y = [u, u', φ, φ']`` the chains of :mod:`drill_twin.physics.models` give
+``y' = A0 y + A1 y(τ - τ_1,0)`` with, writing ``e`` for the bit unit vector,
+
+    u''  = M_a⁻¹[-K_a u - C_a u' - ψ n_b e (u_b - α_o φ_b)] + M_a⁻¹ ψ n_b e (u_b - α_o φ_b)(τ-τ_1,0)
+    φ''  = M_t⁻¹[-K_t φ - C_t φ' - n_b e (u_b - α_o φ_b)]   + M_t⁻¹ n_b e (u_b - α_o φ_b)(τ-τ_1,0)
+
+For RGD-2 (masses 1/2) this gives A0[3,3] = -4 + 2 n_b α_o and
+A1[1,3] = -2 n_b ψ α_o, where the printed eq. 5.1.1 has -2(2 + n_b α_o) and
++2 n_b ψ α_o: the two sign errors of the thesis.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..physics.models import StringModel
+from ..physics.parameters import BitRockGroups
+
+__all__ = ['LinearDDE', 'linearize']
+
+
+@dataclass
+class LinearDDE:
+    """``y'(τ) = A0 y(τ) + A1 y(τ - delay)``; ``labels`` name the state entries."""
+
+    A0: np.ndarray
+    A1: np.ndarray
+    delay: float
+    labels: list
+
+    @property
+    def size(self) -> int:
+        return self.A0.shape[0]
+
+    def characteristic_matrix(self, lam: complex) -> np.ndarray:
+        """Δ(λ) = λ I - A0 - A1 exp(-λ τ)."""
+        return lam * np.eye(self.size) - self.A0 - self.A1 * np.exp(-lam * self.delay)
+
+
+def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
+    """Matrices of the linearised perturbation equations (see module docstring)."""
+    ax = model.axial
+    tr = model.torsional
+    na = ax.n
+    nt = tr.n if tr is not None else 0
+    n = 2 * na + 2 * nt
+    A0 = np.zeros((n, n))
+    A1 = np.zeros((n, n))
+    nb = groups.n_b
+    alpha = groups.alpha_o
+    # selector rows for the delayed depth-of-cut combination (u_b - α φ_b)
+    sel = np.zeros(n)
+    sel[na - 1] = 1.0
+    if nt:
+        sel[2 * na + nt - 1] = -alpha
+    Ma_inv = np.linalg.inv(ax.dense('mass'))
+    A0[:na, na:2 * na] = np.eye(na)
+    A0[na:2 * na, :na] = -Ma_inv @ ax.dense('stiffness')
+    A0[na:2 * na, na:2 * na] = -Ma_inv @ ax.dense('damping')
+    col_a = Ma_inv[:, na - 1] * model.psi * nb
+    A0[na:2 * na] -= np.outer(col_a, sel)
+    A1[na:2 * na] += np.outer(col_a, sel)
+    labels = [f'u{i}' for i in range(na)] + [f'du{i}' for i in range(na)]
+    if nt:
+        Mt_inv = np.linalg.inv(tr.dense('mass'))
+        p, w = slice(2 * na, 2 * na + nt), slice(2 * na + nt, n)
+        A0[p, w] = np.eye(nt)
+        A0[w, p] = -Mt_inv @ tr.dense('stiffness')
+        A0[w, w] = -Mt_inv @ tr.dense('damping')
+        col_t = Mt_inv[:, nt - 1] * nb
+        A0[w] -= np.outer(col_t, sel)
+        A1[w] += np.outer(col_t, sel)
+        labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
+    return LinearDDE(A0, A1, groups.tau_10, labels)
