@@ -12,8 +12,14 @@ import math
 import pytest
 from helpers import measured_growth_rate
 
-from drill_twin.physics.models import (StringModel, axial_chain, coupled_chain, lumped_chain,
-                                       rgd, rgd_k)
+from drill_twin.physics.models import (
+    StringModel,
+    axial_chain,
+    coupled_chain,
+    lumped_chain,
+    rgd,
+    rgd_k,
+)
 from drill_twin.physics.parameters import BitRockGroups
 from drill_twin.physics.scenario import load_scenario
 from drill_twin.stability.spectrum import rightmost_roots

@@ -9,8 +9,12 @@ import math
 
 import pytest
 
-from drill_twin.physics.parameters import (BitRockGroups, DrillStringSI, ParameterError,
-                                           soft_torque_tuning)
+from drill_twin.physics.parameters import (
+    BitRockGroups,
+    DrillStringSI,
+    ParameterError,
+    soft_torque_tuning,
+)
 from drill_twin.physics.scenario import load_scenario
 
 

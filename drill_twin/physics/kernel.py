@@ -54,7 +54,8 @@ STATUS_OK, STATUS_NONFINITE = 0, 1
 # record columns -----------------------------------------------------------------------
 R_TAU, R_V, R_OMEGA, R_W, R_T, R_DELTA, R_TAU1, R_RES = 0, 1, 2, 3, 4, 5, 6, 7
 R_ANG, R_AX, R_CONTACT, R_TSURF, R_OMSURF, R_UBIT, R_PHIBIT, R_VTOP = 8, 9, 10, 11, 12, 13, 14, 15
-N_RECORD = 16
+R_STICK_TIME = 16
+N_RECORD = 17
 # packed chain rows --------------------------------------------------------------------
 CH_M, CH_C, CH_K, CH_CP, CH_INV, CH_Z = 0, 3, 6, 9, 10, 11
 N_CHAIN_ROWS = 12
@@ -332,7 +333,9 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
             record_every, n_rec, state_record):
     """Advance ``n_steps`` steps of size ``h`` (dimensionless) in place.
 
-    ``tau_arr[0]`` is the current time (updated).  Every ``record_every``
+    ``tau_arr[0]`` is the current time and ``tau_arr[1]`` the accumulated time
+    with the bit stuck angularly (both updated; the latter is exact, from the
+    located events, not from samples).  Every ``record_every``
     steps a row of :data:`N_RECORD` channels is written to ``record`` (and the
     full state to ``state_record`` if it has rows); ``n_rec[0]`` counts the
     rows written.  Returns on completion or at the first non-finite state
@@ -362,7 +365,7 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
     if P[P_DRIVE_TAU] <= 0.0:
         x[ith + 1] = IN[IN_OMEGA_CMD] - P[P_OMEGA]
     rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
-    for step in range(n_steps):
+    for _step in range(n_steps):
         remaining = h
         for _sub in range(20):  # at most 20 events per step
             _rk4(tau, x, remaining, k1, mode, P, IN, A, T, hist, meta, xt, k2, k3, k4, tmp,
@@ -375,6 +378,8 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
                 for i in range(n):
                     x[i] = xt[i]
                     k1[i] = k2[i]
+                if mode[MD_ANG] == ANG_STICK:
+                    tau_arr[1] += remaining
                 tau += remaining
                 break
             # locate the crossing: Illinois method on min(g) over the fraction s
@@ -419,6 +424,8 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
             _switching(tau + dt, xt, mode, P, aux, na, nt, g)
             for i in range(n):
                 x[i] = xt[i]
+            if mode[MD_ANG] == ANG_STICK:
+                tau_arr[1] += dt
             tau += dt
             remaining -= dt
             counters[C_EVENTS] += 1
@@ -482,6 +489,7 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
             record[r, R_UBIT] = x[na - 1]
             record[r, R_PHIBIT] = x[2 * na + nt - 1] if nt > 0 else x[ith]
             record[r, R_VTOP] = P[P_UPS] + x[na]
+            record[r, R_STICK_TIME] = tau_arr[1]
             if state_record.shape[0] > r:
                 for i in range(n):
                     state_record[r, i] = x[i]

@@ -23,8 +23,15 @@ from pathlib import Path
 
 import yaml
 
-from .models import (StringModel, axial_chain, coupled_chain, fem_drill_string,
-                     lumped_chain, rgd, rgd_k)
+from .models import (
+    StringModel,
+    axial_chain,
+    coupled_chain,
+    fem_drill_string,
+    lumped_chain,
+    rgd,
+    rgd_k,
+)
 from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
@@ -120,6 +127,8 @@ def _groups_dimensionless(g: dict, model_type: str):
                                omega_o=omega_o, psi=b / n_b)
         return groups, kappa_d
     n_b = _number(g, 'n_b', where=where)
+    if n_b < 1:
+        raise ParameterError(f'groups.n_b must be >= 1 blade, got {n_b:g}')
     if 'n_b_lambda' in g:
         lam = _number(g, 'n_b_lambda', where=where) / n_b
     else:
@@ -202,7 +211,7 @@ def scenario_from_dict(raw: dict) -> Scenario:
     dt = _number(sim, 'time_step', 2e-3, 'simulation.')
     pert = sim.get('initial_perturbation') or {}
     if not isinstance(pert, dict):
-        raise ParameterError('simulation.initial_perturbation must be a mapping of u, v, phi, omega')
+        raise ParameterError('simulation.initial_perturbation must map u, v, phi, omega')
     pert = {k: _number(pert, k, 0.0, 'simulation.initial_perturbation.')
             for k in ('u', 'v', 'phi', 'omega')}
     where = sim.get('perturb', 'bit')

@@ -27,6 +27,7 @@ _RECORD_NAMES = {
     'axial_mode': K.R_AX, 'contact': K.R_CONTACT, 'surface_torque': K.R_TSURF,
     'surface_speed': K.R_OMSURF, 'bit_axial_perturbation': K.R_UBIT,
     'bit_angle_perturbation': K.R_PHIBIT, 'top_axial_speed': K.R_VTOP,
+    'stick_time': K.R_STICK_TIME,
 }
 
 
@@ -114,7 +115,7 @@ class Simulation:
         self.n_axial, self.n_torsional = na, nt
         self.x = np.zeros(2 * na + 2 * nt + 2)
         self.mode = np.array([K.ANG_SLIP, K.AX_DOWN, 1], np.int64)
-        self.tau = np.zeros(1)
+        self.tau = np.zeros(2)  # [τ, accumulated angular stick time]
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
         cap = history_capacity or int(16 * groups.tau_10 / self.h) + 64
         self.hist, self.meta = new_history(cap)

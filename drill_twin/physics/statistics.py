@@ -26,6 +26,7 @@ SERIES_UNITS = {
     'angular_stick': ('1', '1', None),
     'axial_mode': ('1', '1', None),
     'contact': ('1', '1', None),
+    'stick_time': ('s', 't*', 'time_s'),
 }
 
 
@@ -47,7 +48,8 @@ def stick_slip_summary(series: dict, stats_from: float = 0.0) -> dict:
 
     Returns ``first_angular_stick`` (time of the first recorded angular stick
     in the window, None if none), ``stick_fraction`` (fraction of the window
-    with the bit stuck angularly), ``bit_speed_max/min/mean``, ``severity``
+    with the bit stuck angularly, from the exact accumulated stick time),
+    ``bit_speed_max/min/mean``, ``severity``
     = (max - min)/(2 mean) of the bit angular speed, ``rop_mean`` (mean bit
     axial speed) and ``delay_residual_max`` (max |residual of eq. 2.4.14|).
     """
@@ -58,10 +60,15 @@ def stick_slip_summary(series: dict, stats_from: float = 0.0) -> dict:
     om = series['bit_angular_speed'][w]
     stick = series['angular_stick'][w] > 0.5
     first = float(t[w][np.argmax(stick)]) if stick.any() else None
+    # exact stick time from the kernel's event-located accumulator
+    i0 = np.argmax(w)
+    cum = series['stick_time']
+    span = t[-1] - (t[i0 - 1] if i0 > 0 else 0.0)
+    stuck = cum[-1] - (cum[i0 - 1] if i0 > 0 else 0.0)
     mean = float(om.mean())
     return {
         'first_angular_stick': first,
-        'stick_fraction': float(stick.mean()),
+        'stick_fraction': float(stuck / span) if span > 0 else 0.0,
         'bit_speed_max': float(om.max()),
         'bit_speed_min': float(om.min()),
         'bit_speed_mean': mean,

@@ -1,0 +1,76 @@
+"""The drill-twin command line: real runs, JSON outputs, clear errors (exit 2, no traceback)."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from drill_twin.cli import main
+
+
+def run_cli(*args):
+    proc = subprocess.run([sys.executable, '-m', 'drill_twin.cli', *args], capture_output=True,
+                          text=True, timeout=300)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def test_simulate_summary_json_and_output(tmp_path, capsys):
+    out = tmp_path / 'run.npz'
+    assert main(['simulate', '--config', 'rgd_stick_slip', '--tau', '200', '--stats-from',
+                 '100', '--summary-json', '--out', str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    for key in ('first_angular_stick', 'stick_fraction', 'bit_speed_max', 'bit_speed_min',
+                'bit_speed_mean', 'severity', 'rop_mean', 'delay_residual_max'):
+        assert key in summary
+    assert summary['bit_speed_min'] == 0.0 and summary['first_angular_stick'] >= 100
+    data = np.load(out)
+    assert data['time'][-1] == pytest.approx(200.0, abs=0.02)
+    # severity is (max - min)/(2 mean) of the bit speed
+    assert summary['severity'] == pytest.approx(
+        (summary['bit_speed_max'] - summary['bit_speed_min']) / (2 * summary['bit_speed_mean']))
+
+
+def test_simulate_si_units(capsys):
+    assert main(['simulate', '--config', 'benchmark_fem', '--duration', '5',
+                 '--summary-json']) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s['simulated'] == pytest.approx(5.0, abs=0.02)             # seconds
+    assert s['bit_speed_mean'] == pytest.approx(12.57, rel=0.02)      # rad/s
+    assert 0 < s['rop_mean'] < 0.01                                   # m/s
+
+
+def test_params_derives_groups(capsys):
+    assert main(['params', '--config', 'benchmark_fem', '--json']) == 0
+    p = json.loads(capsys.readouterr().out)
+    assert p['upsilon_o'] == pytest.approx(p['omega_o'] * (p['W_o'] - p['n_b_lambda'])
+                                           / (2 * math.pi))
+    assert p['t_star_s'] == pytest.approx(0.3, rel=0.01)
+
+
+def test_stability_roots_json(capsys):
+    assert main(['stability', 'roots', '--config', 'rgd_stick_slip', '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['abscissa'] == pytest.approx(max(r[0] for r in out['roots']))
+
+
+@pytest.mark.parametrize('args, message', [
+    (['simulate', '--config', 'no_such_config'], 'cannot read configuration'),
+    (['simulate', '--config', 'rgd_stick_slip', '--set', 'groups.W_o=2'], 'friction threshold'),
+    (['simulate', '--config', 'rgd_stick_slip', '--set', 'groups.n_b=0'], 'n_b'),
+    (['simulate', '--config', 'rgd_stick_slip', '--set', 'groups.psi=.nan'], 'psi'),
+    (['simulate', '--config', 'benchmark_fem', '--set', 'drill_string.pipe_length_m=-3'],
+     'pipe_length_m'),
+    (['simulate', '--config', 'rgd_stick_slip', '--tau', '-1'], 'duration'),
+])
+def test_bad_input_gives_clear_error(args, message):
+    code, out, err = run_cli(*args)
+    assert code == 2 and message in err and 'Traceback' not in err
+
+
+def test_malformed_yaml(tmp_path):
+    bad = tmp_path / 'x.yaml'
+    bad.write_text('model: {type: rgd\n')
+    code, _, err = run_cli('simulate', '--config', str(bad))
+    assert code == 2 and 'malformed YAML' in err
