@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.drill_twin-installed
 REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt setup.py setup.cfg pyproject.toml
 
-.PHONY: venv demo test lint bench clean
+.PHONY: venv demo test lint clean clean-cache
 
 venv: $(STAMP)
 
@@ -30,3 +30,6 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) build install log runs *.egg-info
+
+clean-cache:
+	find drill_twin -name '*.nbi' -delete -o -name '*.nbc' -delete

@@ -126,8 +126,9 @@ def cmd_stability(args) -> int:
                'error_estimate': res.error_estimate, 'order': res.order}
     else:
         wc = critical_speed(scenario.model, scenario.groups, args.omega_min, args.omega_max)
-        out = {'critical_omega': wc, 'critical_surface_speed_rad_s':
-               (wc / scenario.time_unit_s if wc is not None else None)}
+        out = {'critical_omega': wc}
+        if scenario.is_si:
+            out['critical_surface_speed_rad_s'] = wc / scenario.time_unit_s if wc else None
     if args.json:
         print(json.dumps(out))
     else:
