@@ -88,3 +88,14 @@ def test_fem_stable_point_decays_at_the_root_rate():
     assert roots[0].real < 0
     rate = measured_growth_rate(sc.model, sc.groups, roots[0], (10.0, 60.0), h=2e-3)
     assert rate == pytest.approx(roots[0].real, rel=0.02)
+
+
+@pytest.mark.parametrize('overrides, window', [(['model.type=lumped_I'], (5.0, 40.0)),
+                                               (['model.type=lumped_II'], (3.0, 18.0)),
+                                               (['model.axial_top=velocity'], (20.0, 45.0))])
+def test_lumped_and_velocity_top_models(overrides, window):
+    sc = load_scenario('benchmark_fem', overrides)
+    roots = rightmost_roots(sc.model, sc.groups, count=4).roots
+    rate = measured_growth_rate(sc.model, sc.groups, roots[0], window, h=2e-3,
+                                amplitude=1e-9)
+    assert rate == pytest.approx(roots[0].real, rel=0.02)

@@ -29,6 +29,7 @@ Derivations
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,7 +37,8 @@ import numpy as np
 from .parameters import DrillStringSI, ParameterError, soft_torque_tuning
 
 __all__ = ['Chain', 'StringModel', 'lumped_chain', 'fem_chain', 'rgd', 'rgd_k',
-           'axial_chain', 'coupled_chain', 'fem_drill_string']
+           'axial_chain', 'coupled_chain', 'fem_drill_string', 'lumped_bha',
+           'pipe_impedances']
 
 
 @dataclass
@@ -108,8 +110,13 @@ def lumped_chain(masses, springs, damping=None, top_fixed=True) -> Chain:
         raise ParameterError('need one spring per mass (springs[0] is the top spring)')
     if np.any(~np.isfinite(m)) or np.any(m <= 0):
         raise ParameterError('masses must be finite and > 0')
-    if np.any(~np.isfinite(k)) or np.any(k[1:] <= 0) or (top_fixed and k[0] <= 0):
+    c = np.zeros(n) if damping is None else np.asarray(damping, float)
+    if np.any(~np.isfinite(k)) or np.any(k[1:] <= 0) or k[0] < 0:
         raise ParameterError('stiffnesses must be finite and > 0')
+    if np.any(~np.isfinite(c)) or np.any(c < 0):
+        raise ParameterError('dash-pot coefficients must be finite and >= 0')
+    if top_fixed and k[0] == 0 and c[0] == 0:
+        raise ParameterError('a prescribed top needs a spring or a dash-pot to the first mass')
 
     def tri(coef):
         t = np.zeros((3, n))
@@ -122,7 +129,6 @@ def lumped_chain(masses, springs, damping=None, top_fixed=True) -> Chain:
             t[0, i] = -coef[i]
         return t
 
-    c = np.zeros(n) if damping is None else np.asarray(damping, float)
     M = np.zeros((3, n))
     M[1] = m
     return Chain(mass=M, damping=tri(c), stiffness=tri(k),
@@ -241,10 +247,12 @@ def coupled_chain(n: int, kappa_d: float, psi: float, axial_top: str = 'velocity
 
 def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: int = 10,
                      theta_u: float = 5e-4, theta_phi: float = 1e-4, eta_u: float = 0.0,
-                     eta_phi: float = 0.0, top_drive: str = 'speed') -> StringModel:
+                     eta_phi: float = 0.0, top_drive: str = 'speed',
+                     axial_top: str = 'hook_load') -> StringModel:
     """Finite-element drill string of App. A / §3.2 (drill pipe + BHA).
 
-    Axial top: constant hook load (free node).  Torsional top: ``'speed'``
+    Axial top: ``'hook_load'`` (constant hook load, free node) or ``'velocity'``
+    (imposed axial velocity, node eliminated).  Torsional top: ``'speed'``
     (prescribed surface speed, node eliminated) or ``'soft_torque'`` (drive
     inertia I_DS on the top node tied to the motor by the tuned k_f, c_f).
     Units: masses / M_BHA, inertias / I_BHA, stiffnesses / (M_BHA/t*²) and C.
@@ -259,8 +267,11 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
     area = np.where(is_bha, system.bha_area_m2, system.pipe_area_m2)
     polar = np.where(is_bha, system.bha_polar_m4, system.pipe_polar_m4)
     t2 = s.time_s ** 2
+    if axial_top not in ('hook_load', 'velocity'):
+        raise ParameterError(f"axial_top must be 'hook_load' or 'velocity', got {axial_top!r}")
     axial = fem_chain(h, system.young_modulus_Pa * area * t2 / s.mass_kg,
-                      system.density_kg_m3 * area / s.mass_kg, eta_u, theta_u, top_fixed=False)
+                      system.density_kg_m3 * area / s.mass_kg, eta_u, theta_u,
+                      top_fixed=axial_top == 'velocity')
     gj = system.shear_modulus_Pa * polar / s.torque_Nm
     rj = system.density_kg_m3 * polar / s.inertia_kgm2
     if top_drive == 'speed':
@@ -273,3 +284,38 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
     else:
         raise ParameterError(f"top_drive must be 'speed' or 'soft_torque', got {top_drive!r}")
     return StringModel(f'fem_{elements}', axial, tors, system.psi)
+
+
+def pipe_impedances(system: DrillStringSI) -> dict:
+    """Radiation (semi-infinite pipe) impedances of the drill pipe, dimensionless.
+
+    A semi-infinite elastic pipe loaded at its end answers a velocity V with the
+    force ``A sqrt(Eρ) V`` (eqs 5.2.1-5.2.2: ∂U/∂t = -c ∂U/∂x), and a spin Ω with the
+    torque ``J sqrt(Gρ) Ω``.  In units of M_BHA/t* and I/t* (the chain units):
+    ``axial = A_d sqrt(Eρ) t*/M``, ``torsional = J_d sqrt(Gρ) t*/I``.
+    """
+    s = system.scales()
+    z_u = system.pipe_area_m2 * math.sqrt(system.young_modulus_Pa * system.density_kg_m3)
+    z_p = system.pipe_polar_m4 * math.sqrt(system.shear_modulus_Pa * system.density_kg_m3)
+    return {'axial': z_u * s.time_s / s.mass_kg, 'torsional': z_p * s.time_s / s.inertia_kgm2}
+
+
+def lumped_bha(psi: float, variant: str, axial_impedance: float, torsional_impedance: float,
+               kappa_d: float | None = None) -> StringModel:
+    """Lumped models of thesis App. B: a rigid BHA under a drill pipe.
+
+    ``'I'``: the pipe is a semi-infinite radiation boundary both axially and
+    torsionally (dash-pots of the pipe impedances to the nominal motion,
+    eqs B.2.3-B.2.4).  ``'II'``: axially the pipe is the spring κ_d to an imposed
+    surface velocity, torsionally still a radiation dash-pot (eqs B.2.5-B.2.6).
+    """
+    tors = lumped_chain([1.0], [0.0], damping=[torsional_impedance])
+    if variant == 'I':
+        axial = lumped_chain([1.0], [0.0], damping=[axial_impedance])
+    elif variant == 'II':
+        if not kappa_d or kappa_d <= 0:
+            raise ParameterError('lumped model II needs kappa_d > 0')
+        axial = lumped_chain([1.0], [kappa_d])
+    else:
+        raise ParameterError(f"lumped model variant must be 'I' or 'II', got {variant!r}")
+    return StringModel(f'lumped_{variant}', axial, tors, float(psi))

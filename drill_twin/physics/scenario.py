@@ -28,7 +28,9 @@ from .models import (
     axial_chain,
     coupled_chain,
     fem_drill_string,
+    lumped_bha,
     lumped_chain,
+    pipe_impedances,
     rgd,
     rgd_k,
 )
@@ -148,7 +150,7 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
     if kind == 'rgd_axial':
         return StringModel('rgd_axial', lumped_chain([1.0], [0.0], top_fixed=False), None,
                            groups.psi)
-    if kind in ('rgd_k', 'axial_chain', 'coupled_chain'):
+    if kind in ('rgd_k', 'axial_chain', 'coupled_chain', 'lumped_II'):
         if kappa_d is None:
             raise ParameterError(f'model {kind} needs groups.kappa_d (or a, b)')
         if kappa_d <= 0:
@@ -162,6 +164,10 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
     if kind == 'coupled_chain':
         return coupled_chain(int(_number(m, 'n', where='model.')), kappa_d, groups.psi,
                              axial_top=m.get('axial_top', 'velocity'))
+    if kind in ('lumped_I', 'lumped_II'):
+        z = _impedances(m, system)
+        return lumped_bha(groups.psi, kind.split('_')[1], z['axial'], z['torsional'],
+                          kappa_d=kappa_d)
     if kind == 'fem':
         if system is None:
             raise ParameterError('model fem needs units: si and a drill_string section')
@@ -171,9 +177,17 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
             theta_u=_number(m, 'theta_u', 5e-4, 'model.'),
             theta_phi=_number(m, 'theta_phi', 1e-4, 'model.'),
             eta_u=_number(m, 'eta_u', 0.0, 'model.'), eta_phi=_number(m, 'eta_phi', 0.0, 'model.'),
-            top_drive=m.get('top_drive', 'speed'))
+            top_drive=m.get('top_drive', 'speed'), axial_top=m.get('axial_top', 'hook_load'))
     raise ParameterError(f'unknown model.type {kind!r} (rgd, rgd_axial, rgd_k, axial_chain, '
-                         'coupled_chain, fem)')
+                         'coupled_chain, lumped_I, lumped_II, fem)')
+
+
+def _impedances(m: dict, system) -> dict:
+    """Pipe radiation impedances: derived for SI configs, given otherwise."""
+    if system is not None:
+        return pipe_impedances(system)
+    return {'axial': _number(m, 'axial_impedance', where='model.'),
+            'torsional': _number(m, 'torsional_impedance', where='model.')}
 
 
 def scenario_from_dict(raw: dict) -> Scenario:

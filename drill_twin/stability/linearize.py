@@ -31,7 +31,7 @@ import numpy as np
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
 
-__all__ = ['LinearDDE', 'linearize']
+__all__ = ['LinearDDE', 'linearize', 'linearize_semi_infinite']
 
 
 @dataclass
@@ -87,3 +87,21 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         A1[w] += np.outer(col_t, sel)
         labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
     return LinearDDE(A0, A1, groups.tau_10, labels)
+
+
+def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: float,
+                            torsional_impedance: float) -> LinearDDE:
+    """The semi-infinite drill string of §5.2 (massless bit on radiation boundaries).
+
+    With no bit mass the momentum balances at the bit are ``z_u u' = -ψ (W - W_o)``
+    and ``z_φ φ' = -(T - T_o)`` (eqs 5.2.1-5.2.6 in the chain units of
+    :func:`drill_twin.physics.models.pipe_impedances`); linearised as above:
+    ``y = [u, φ]``, ``y' = A0 y + A1 y(τ - τ_1,0)``.  This is the M → 0 limit of
+    lumped model I; it is a stability model only (a stuck bit never restarts).
+    """
+    nb, al = groups.n_b, groups.alpha_o
+    gain = np.array([psi / axial_impedance, 1.0 / torsional_impedance]) * nb
+    sel = np.array([1.0, -al])
+    A0 = -np.outer(gain, sel)
+    A1 = np.outer(gain, sel)
+    return LinearDDE(A0, A1, groups.tau_10, ['u', 'phi'])

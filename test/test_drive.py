@@ -1,0 +1,77 @@
+"""Commanded surface inputs: speed drive dynamics, hook-load changes, semi-infinite limit.
+
+References: the first-order drive lag ω(τ) = ω_1 + (ω_0 - ω_1) e^{-τ/T_d} (analytic);
+the steady state eqs 2.4.5-2.4.6 at the new operating point; for the semi-infinite
+pipe the decoupled axial equation u' = -k (u - u(τ-τ_0)) has no root with Re > 0
+besides 0 (|λ + k| = k |e^{-λτ_0}| < k is impossible for Re λ > 0).
+"""
+import math
+
+import numpy as np
+import pytest
+
+from drill_twin.physics.models import StringModel, lumped_chain, rgd
+from drill_twin.physics.parameters import BitRockGroups, ParameterError
+from drill_twin.physics.simulation import Simulation
+from drill_twin.stability.linearize import linearize_semi_infinite
+from drill_twin.stability.spectrum import rightmost_roots
+
+# ψ = 2: ω_c = sqrt(8ψ/n_b) = 1.63 < ω_o, so the axial mode is stable; the torsional
+# pendulum gets a dash-pot (1.0 > the anti-damping 2πυ_o/ω_o² = 0.42 of the delay)
+QUIET = dict(n_b=6, lam=5 / 6, beta=1.3, W_o=7.0, omega_o=5.0, psi=2.0)
+
+
+def damped_rgd(psi):
+    return StringModel('damped_rgd', lumped_chain([1.0], [0.0], top_fixed=False),
+                       lumped_chain([1.0], [1.0], damping=[1.0]), psi)
+
+
+def test_speed_step_follows_drive_lag_and_bit_follows_surface():
+    g = BitRockGroups(**QUIET)
+    T_d = 0.5
+    sim = Simulation(damped_rgd(g.psi), g, 2e-3, drive_time_constant=T_d)
+    sim.run(5.0, 0.1)
+    t0 = sim.time
+    sim.set_surface_speed(6.0)
+    tr = sim.run(60.0, 0.01)
+    expected = 6.0 + (5.0 - 6.0) * np.exp(-(tr.tau - t0) / T_d)
+    np.testing.assert_allclose(tr.surface_speed, expected, atol=1e-9)
+    late = tr.tau > t0 + 40
+    assert tr.bit_angular_speed[late].mean() == pytest.approx(6.0, rel=0.01)
+    # the bit responds through the string: it lags the surface at first
+    early = (tr.tau > t0) & (tr.tau < t0 + 0.3)
+    assert np.all(tr.bit_angular_speed[early] < tr.surface_speed[early])
+
+
+def test_hook_load_change_moves_wob_and_rop_to_the_new_steady_state():
+    g = BitRockGroups(**QUIET)
+    sim = Simulation(damped_rgd(g.psi), g, 2e-3)
+    sim.set_axial_top_force(1.5)          # hook load lowered by 1.5 W*
+    tr = sim.run(120.0, 0.01)
+    late = tr.tau > 80
+    W = QUIET['W_o'] + 1.5
+    assert tr.weight_on_bit[late].mean() == pytest.approx(W, rel=0.01)
+    rop = QUIET['omega_o'] * (W - QUIET['n_b'] * QUIET['lam']) / (2 * math.pi)  # eq. 2.4.5
+    assert tr.bit_axial_speed[late].mean() == pytest.approx(rop, rel=0.01)
+
+
+@pytest.mark.parametrize('bad', [float('nan'), float('inf'), -1.0])
+def test_bad_commands_are_rejected_and_state_is_kept(bad):
+    g = BitRockGroups(**QUIET)
+    sim = Simulation(rgd(g.psi), g, 2e-3)
+    sim.run(1.0, 0.1)
+    before = sim.inputs.copy()
+    with pytest.raises(ParameterError):
+        sim.set_surface_speed(bad)
+    if not math.isfinite(bad):
+        with pytest.raises(ParameterError):
+            sim.set_axial_top_force(bad)
+    np.testing.assert_array_equal(sim.inputs, before)
+    sim.run(1.0, 0.1)  # keeps running
+
+
+def test_semi_infinite_axial_limit_is_stable():
+    g = BitRockGroups(**dict(QUIET, W_o=5.0 + 1e-9))   # α_o ~ 0: axial decoupled from torsion
+    dde = linearize_semi_infinite(g, 50.0, 1.0, 1.0)
+    res = rightmost_roots(dde)
+    assert res.zero_root and res.abscissa < 0
