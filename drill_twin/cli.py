@@ -119,7 +119,20 @@ def cmd_params(args) -> int:
 
 def cmd_stability(args) -> int:
     from .stability.spectrum import critical_speed, rightmost_roots
+    if args.action == 'gallery':
+        from .stability.gallery import make_gallery
+        summary = make_gallery(args.out or 'docs/figures', args.figure, quick=args.quick,
+                               workers=args.workers,
+                               progress=_Progress('charts', sys.stderr.isatty()))
+        print(json.dumps(summary, indent=1))
+        return 0
+    if args.config is None:
+        raise ParameterError('--config is required')
     scenario = load_scenario(args.config, args.set)
+    if args.action == 'chart':
+        return _chart(args, scenario)
+    if args.action == 'discretization':
+        return _discretization(args, scenario)
     if args.action == 'roots':
         res = rightmost_roots(scenario.model, scenario.groups, count=args.count)
         out = {'abscissa': res.abscissa, 'roots': [[z.real, z.imag] for z in res.roots],
@@ -134,6 +147,55 @@ def cmd_stability(args) -> int:
     else:
         for key, value in out.items():
             print(f'{key:>28}: {value}')
+    return 0
+
+
+def _chart(args, scenario: Scenario) -> int:
+    from .stability.charts import parse_axis, plot_chart, stability_chart
+    if not (args.x and args.y and args.out):
+        raise ParameterError('stability chart needs --x, --y and --out')
+    xk, xs = parse_axis(args.x)
+    yk, ys = parse_axis(args.y)
+    t0 = time.perf_counter()
+    chart = stability_chart(scenario.raw, xk, xs, yk, ys, workers=args.workers,
+                            threshold=args.threshold)
+    wall = time.perf_counter() - t0
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plot_chart(chart, out, title=f'{scenario.model.name}: stable region shaded, D-curves')
+    data = out.with_suffix('.npz')
+    chart.save(data)
+    stable = float((chart.unstable == 0).mean())
+    print(json.dumps({'png': str(out), 'data': str(data), 'points': int(chart.unstable.size),
+                      'stable_fraction': stable, 'wall_s': wall}))
+    return 0
+
+
+def _discretization(args, scenario: Scenario) -> int:
+    from .stability.discretization import chain_sequence, fem_sequence, plot_sequences
+    if not scenario.is_si:
+        raise ParameterError('the discretisation study needs an SI (FEM) configuration')
+    sizes = [int(v) for v in args.sizes.split(',')]
+    m = scenario.raw.get('model', {})
+    damped = {'theta_u': m.get('theta_u', 5e-4), 'theta_phi': m.get('theta_phi', 1e-4)}
+    series = {
+        f"FEM, Rayleigh ϑ_u={damped['theta_u']:g}, ϑ_φ={damped['theta_phi']:g}":
+            fem_sequence(scenario.system, scenario.groups, sizes, **damped),
+        'FEM, undamped': fem_sequence(scenario.system, scenario.groups, sizes, theta_u=0.0,
+                                      theta_phi=0.0),
+        'FEM, undamped, imposed axial velocity': fem_sequence(
+            scenario.system, scenario.groups, sizes, theta_u=0.0, theta_phi=0.0,
+            axial_top='velocity'),
+        'lumped chains (RGD-N, undamped)': chain_sequence(scenario.groups, scenario.kappa_d,
+                                                          [1] + sizes),
+    }
+    table = {label: {str(n): [r[0].real, abs(r[0].imag)] for n, r in seq.items()}
+             for label, seq in series.items()}
+    if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        plot_sequences(series, args.out)
+        table['png'] = args.out
+    print(json.dumps(table, indent=None if args.json else 1))
     return 0
 
 
@@ -194,8 +256,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_params)
 
     s = sub.add_parser('stability', help='linear stability of the steady state')
-    s.add_argument('action', choices=['roots', 'critical-speed'])
-    common(s)
+    s.add_argument('action', choices=['roots', 'critical-speed', 'chart', 'discretization',
+                                      'gallery'])
+    s.add_argument('--config', help='YAML file, or a name in config/')
+    s.add_argument('--set', action='append', default=[], metavar='KEY=VALUE')
+    s.add_argument('--figure', action='append', help='gallery: thesis figure id (repeatable)')
+    s.add_argument('--quick', action='store_true', help='gallery: coarse grids (smoke test)')
+    s.add_argument('--x', help='chart axis KEY:MIN:MAX:N (dotted config key or upsilon_o)')
+    s.add_argument('--y', help='chart axis KEY:MIN:MAX:N')
+    s.add_argument('--out', help='chart PNG (data goes beside it as .npz)')
+    s.add_argument('--workers', type=int, default=None, help='processes (default: all cores)')
+    s.add_argument('--sizes', default='2,4,8,16,32,64,128,256',
+                   help='discretization: element / oscillator counts')
+    s.add_argument('--threshold', type=float, default=1e-9,
+                   help='real part above which a root counts as unstable [1/t*]')
     s.add_argument('--json', action='store_true')
     s.add_argument('--count', type=int, default=6, help='number of rightmost roots')
     s.add_argument('--omega-min', type=float, default=0.5)

@@ -114,3 +114,32 @@ def test_roots_converge_with_collocation_order(name):
     assert final.error_estimate < errs[0]
     higher = rightmost_roots(model, g, count=2, order=DEFAULT_ORDER + 16)
     assert higher.roots[0] == pytest.approx(final.roots[0], abs=1e-8)
+
+
+def test_chart_of_the_one_dof_system_is_the_analytic_triangle():
+    """Fig. 4.1.2 (p = 0): stable iff b < a < π² - b (D-curves k = 0, 1)."""
+    from drill_twin.stability.charts import stability_chart
+    raw = load_scenario('axial_chain_2dof', ['model.n=1']).raw
+    xs, ys = np.linspace(0.5, 12.0, 24), np.linspace(0.2, 6.0, 15)
+    chart = stability_chart(raw, 'groups.a', xs, 'groups.b', ys, workers=2)
+    A, B = np.meshgrid(xs, ys)
+    np.testing.assert_array_equal(chart.unstable == 0, (B < A) & (A < math.pi ** 2 - B))
+
+
+def test_pontryagin_count_agrees_with_the_spectral_count():
+    """App. C: independent root counting for the 2-DOF chain on a grid (away from
+    D-curves, |abscissa| > 0.01)."""
+    from drill_twin.stability.pontryagin import unstable_root_count
+    checked = 0
+    for eps in (0.2, 0.5, 0.8):
+        for a in np.linspace(0.5, 40.0, 12):
+            for b in np.linspace(0.2, 12.0, 7):
+                if a - b < 1e-3:
+                    continue
+                model, g = _chain(2, a, b, eps)
+                res = rightmost_roots(model, g, count=20)
+                if abs(res.abscissa) < 0.01:
+                    continue
+                assert unstable_root_count(model, g) == int(np.sum(res.roots.real > 0))
+                checked += 1
+    assert checked > 150

@@ -216,18 +216,20 @@ def _split(n: int, eps: float | None, eps2: float | None = None):
 
 
 def axial_chain(n: int, kappa_d: float, psi: float, eps: float | None = None,
-                eps2: float | None = None) -> StringModel:
+                eps2: float | None = None, top_damping: float = 0.0) -> StringModel:
     """N axial oscillators of eqs 4.2.1 / 4.3.1 / 4.4.1 (constant rotation).
 
     Total mass 1 and total (series) stiffness κ_d are kept: masses ε1 (last
     1-(N-1)ε1), spring compliances ε2/κ_d (last (1-(N-1)ε2)/κ_d).  The top is
     an imposed axial velocity.  With time scaled so that the delay is 1, the
-    1-DOF limit is ``u'' + a u - b u(t-1) = 0`` with ``a = κ_d + n_b ψ`` and
-    ``b = n_b ψ``.
+    1-DOF limit is ``u'' + p u' + a u - b u(t-1) = 0`` with ``a = κ_d + n_b ψ``,
+    ``b = n_b ψ`` and ``p`` = ``top_damping`` (a dash-pot beside the top spring).
     """
     mass, compliance = _split(n, eps, eps2)
-    return StringModel(f'axial_chain_{n}', lumped_chain(mass, kappa_d / compliance), None,
-                       float(psi))
+    damping = np.zeros(n)
+    damping[0] = top_damping
+    return StringModel(f'axial_chain_{n}', lumped_chain(mass, kappa_d / compliance, damping),
+                       None, float(psi))
 
 
 def coupled_chain(n: int, kappa_d: float, psi: float, axial_top: str = 'velocity') -> StringModel:

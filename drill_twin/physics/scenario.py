@@ -160,7 +160,8 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
     if kind == 'axial_chain':
         n = int(_number(m, 'n', where='model.'))
         eps = m.get('eps')
-        return axial_chain(n, kappa_d, groups.psi, eps=eps, eps2=m.get('eps2'))
+        return axial_chain(n, kappa_d, groups.psi, eps=eps, eps2=m.get('eps2'),
+                           top_damping=_number(m, 'damping', 0.0, 'model.'))
     if kind == 'coupled_chain':
         return coupled_chain(int(_number(m, 'n', where='model.')), kappa_d, groups.psi,
                              axial_top=m.get('axial_top', 'velocity'))

@@ -34,6 +34,7 @@ from ..physics.parameters import BitRockGroups
 from .linearize import LinearDDE, linearize
 
 __all__ = ['cheb', 'collocation_matrix', 'newton_root', 'rightmost_roots', 'RootsResult',
+           'adaptive_order',
            'spectral_abscissa', 'critical_speed', 'DEFAULT_ORDER']
 
 #: default collocation order; justified by test_stability.py::test_roots_converge
@@ -120,14 +121,49 @@ class _TransferFunction:
         e = np.exp(-lam * self.h)
         return 1.0 - e * g, e * (self.h * g - dg), g
 
+    def newton_batch(self, lam0, tol=1e-14, maxit=15):
+        """Newton on many starting points at once (vectorised over candidates)."""
+        lam = np.array(lam0, complex)
+        start = lam.copy()
+        active = np.isfinite(lam)
+        with np.errstate(all='ignore'):
+            for _ in range(maxit):
+                if not active.any():
+                    break
+                z = lam[active]
+                d = z[:, None] - self.mu[None, :]
+                g = (self.p / d).sum(axis=1)
+                dg = -(self.p / d ** 2).sum(axis=1)
+                e = np.exp(-z * self.h)
+                fv = 1.0 - e * g
+                dfv = e * (self.h * g - dg)
+                step = -fv / dfv
+                z = z + step
+                bad = ~np.isfinite(z) | (z.real * self.h < -700)
+                z[bad] = np.nan
+                lam[active] = z
+                done = bad | (np.abs(step) <= tol * np.maximum(1.0, np.abs(z)))
+                idx = np.flatnonzero(active)
+                active[idx[done]] = False
+            d = lam[:, None] - self.mu[None, :]
+            g = (self.p / d).sum(axis=1)
+            e = np.exp(-lam * self.h)
+            rel = np.abs(1.0 - e * g) / np.maximum(1.0, np.abs(e * g))
+        rel[~np.isfinite(lam)] = np.inf
+        return lam, np.abs(lam - start), rel
+
     def newton(self, lam0, tol=1e-14, maxit=40):
+        with np.errstate(all='ignore'):  # a wild iterate may hit a pole: rejected below
+            return self._newton(lam0, tol, maxit)
+
+    def _newton(self, lam0, tol, maxit):
         lam = complex(lam0)
         for _ in range(maxit):
             if not (np.isfinite(lam) and lam.real * self.h > -700):
                 return complex(np.nan, np.nan), np.inf, np.inf
             fv, dfv, _ = self.f(lam)
-            if dfv == 0:
-                break
+            if dfv == 0 or not np.isfinite(dfv) or not np.isfinite(fv):
+                return complex(np.nan, np.nan), np.inf, np.inf
             step = -fv / dfv
             lam += step
             if abs(step) <= tol * max(1.0, abs(lam)):
@@ -195,23 +231,42 @@ def _collocation_eigs(dde: LinearDDE, N: int, factors):
     return sla.eigvals(collocation_matrix(dde, N))
 
 
+def adaptive_order(dde: LinearDDE, minimum: int = DEFAULT_ORDER, cap: int = 1024) -> int:
+    """Collocation order whose resolved band |Im λ| < πN/(2h) covers the fastest mode.
+
+    The band limit is that of the candidate filter in :func:`rightmost_roots`;
+    the fastest mode is the largest |Im| of the eigenvalues of A0, with 30 % margin.
+    """
+    w_max = float(np.max(np.abs(np.linalg.eigvals(dde.A0).imag), initial=0.0))
+    need = int(np.ceil(1.3 * 2.0 * dde.delay * w_max / np.pi))
+    return int(min(max(minimum, need), cap))
+
+
 def rightmost_roots(model_or_dde, groups: BitRockGroups | None = None, count: int = 6,
-                    order: int = DEFAULT_ORDER) -> RootsResult:
+                    order: int | None = None, seeds=None) -> RootsResult:
     """Rightmost characteristic roots of a model's linearisation (or of a LinearDDE).
 
     The structural zero root (hook-load top: a rigid axial shift is a
     solution; on a = b in the (a, b) chains) is detected through the
     singularity of Δ(0) and left out of ``abscissa`` and ``roots``.
+    ``seeds`` (e.g. the roots at a neighbouring parameter point) are refined
+    by Newton along with the collocation eigenvalues.  ``order=None`` picks
+    :func:`adaptive_order`, so that no mode of the model lies outside the
+    resolved frequency band.
     """
     dde = model_or_dde if isinstance(model_or_dde, LinearDDE) else linearize(model_or_dde,
                                                                              groups)
+    if order is None:
+        order = adaptive_order(dde)
     factors = rank_one_factors(dde.A1)
     eig = _collocation_eigs(dde, order, factors)
     eig = eig[np.isfinite(eig)]
     # keep candidates well resolved by the collocation: |Im| below the grid resolution
     limit = 0.5 * np.pi * order / dde.delay
     cand = eig[np.abs(eig.imag) < limit]
-    cand = cand[np.argsort(-cand.real)][:max(3 * count, 12)]
+    cand = cand[np.argsort(-cand.real)][:count + 8]
+    if seeds is not None and len(seeds):
+        cand = np.concatenate([np.asarray(seeds, complex), cand])
     M0 = dde.characteristic_matrix(0.0)
     s0 = np.linalg.svd(M0, compute_uv=False)
     zero_root = s0[-1] <= 1e-10 * max(s0[0], 1.0)
@@ -219,14 +274,20 @@ def rightmost_roots(model_or_dde, groups: BitRockGroups | None = None, count: in
     if tf is not None and tf.uncoupled.size:
         cand = np.concatenate([cand, tf.uncoupled])
         cand = cand[np.argsort(-cand.real)]
+    cand = cand[cand.imag >= -1e-9]  # conjugates are added back below
+    if tf is not None:
+        coupled = np.array([not np.any(np.abs(tf.uncoupled - z) < 1e-12 * max(1, abs(z)))
+                            for z in cand], bool)
+        refined = np.empty(cand.size, complex)
+        corrs = np.zeros(cand.size)
+        rels = np.zeros(cand.size)
+        refined[coupled], corrs[coupled], rels[coupled] = tf.newton_batch(cand[coupled])
+        refined[~coupled] = cand[~coupled]
+        results = list(zip(refined, corrs, rels))
+    else:
+        results = [newton_root(dde, z) for z in cand]
     roots, errs = [], []
-    for z in cand:
-        if z.imag < -1e-9:
-            continue  # conjugates are added back below
-        if tf is not None and not np.any(np.abs(tf.uncoupled - z) < 1e-12 * max(1, abs(z))):
-            r, corr, rel = tf.newton(z)
-        else:
-            r, corr, rel = newton_root(dde, z)
+    for r, corr, rel in results:
         if rel > 1e-8 or not np.isfinite(r):
             continue
         if zero_root and abs(r) < 1e-7:
@@ -248,7 +309,7 @@ def rightmost_roots(model_or_dde, groups: BitRockGroups | None = None, count: in
 
 
 def spectral_abscissa(model: StringModel, groups: BitRockGroups,
-                      order: int = DEFAULT_ORDER) -> float:
+                      order: int | None = None) -> float:
     """Largest real part of the characteristic roots (zero root excluded)."""
     return rightmost_roots(model, groups, count=2, order=order).abscissa
 
