@@ -45,6 +45,9 @@ class _Progress:
 
 
 def build_simulation(scenario: Scenario) -> Simulation:
+    if scenario.stability_only:
+        raise ParameterError('model semi_infinite is a stability model only (thesis §5.2: '
+                             'a massless stuck bit never restarts); use lumped_I to simulate')
     sim = Simulation(scenario.model, scenario.groups, scenario.time_step)
     sim.perturb(where=scenario.perturb_where, **scenario.initial_perturbation)
     return sim
@@ -134,7 +137,8 @@ def cmd_stability(args) -> int:
     if args.action == 'discretization':
         return _discretization(args, scenario)
     if args.action == 'roots':
-        res = rightmost_roots(scenario.model, scenario.groups, count=args.count)
+        from .stability.linearize import linearize_scenario
+        res = rightmost_roots(linearize_scenario(scenario), count=args.count)
         out = {'abscissa': res.abscissa, 'roots': [[z.real, z.imag] for z in res.roots],
                'error_estimate': res.error_estimate, 'order': res.order}
     else:

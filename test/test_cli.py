@@ -74,3 +74,33 @@ def test_malformed_yaml(tmp_path):
     bad.write_text('model: {type: rgd\n')
     code, _, err = run_cli('simulate', '--config', str(bad))
     assert code == 2 and 'malformed YAML' in err
+
+
+def test_semi_infinite_is_stability_only(capsys):
+    assert main(['stability', 'roots', '--config', 'benchmark_fem', '--set',
+                 'model.type=semi_infinite', '--json']) == 0
+    assert json.loads(capsys.readouterr().out)['abscissa'] < 0
+    code, _, err = run_cli('simulate', '--config', 'benchmark_fem', '--set',
+                           'model.type=semi_infinite')
+    assert code == 2 and 'stability model only' in err
+
+
+def test_discretization_study_small(tmp_path, capsys):
+    png = tmp_path / 'd.png'
+    assert main(['stability', 'discretization', '--config', 'benchmark_fem', '--sizes',
+                 '32,64', '--out', str(png), '--json']) == 0
+    table = json.loads(capsys.readouterr().out)
+    damped = next(v for k, v in table.items() if k.startswith('FEM, Rayleigh'))
+    # converged to 1 % between 32 and 64 elements (docs/discretization.md)
+    assert damped['64'][0] == pytest.approx(damped['32'][0], rel=0.05)
+    assert png.stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_stability_gallery_quick(tmp_path):
+    code, out, err = run_cli('stability', 'gallery', '--quick', '--out', str(tmp_path))
+    assert code == 0, err
+    for fig in ('4_1_2', '4_2_2', '4_3_1', '5_1_2', '5_2_2', 'B_3_1'):
+        assert (tmp_path / f'fig_{fig}.png').stat().st_size > 0
+    summary = json.loads((tmp_path / 'stability_gallery.json').read_text())
+    assert summary['5.1.2 RGD-2, strict (Re λ > 1e-9)']['stable_fraction'] == 0.0

@@ -76,6 +76,15 @@ class Scenario:
         return self.scales is not None
 
     @property
+    def stability_only(self) -> bool:
+        """The semi-infinite string of §5.2 has no bit mass: linear analysis only."""
+        return self.model.name == 'semi_infinite'
+
+    def impedances(self) -> dict:
+        """Pipe radiation impedances (chain units) of lumped/semi-infinite models."""
+        return _impedances(self.raw.get('model') or {}, self.system)
+
+    @property
     def time_unit_s(self) -> float:
         return self.scales.time_s if self.scales else 1.0
 
@@ -165,10 +174,13 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
     if kind == 'coupled_chain':
         return coupled_chain(int(_number(m, 'n', where='model.')), kappa_d, groups.psi,
                              axial_top=m.get('axial_top', 'velocity'))
-    if kind in ('lumped_I', 'lumped_II'):
+    if kind in ('lumped_I', 'lumped_II', 'semi_infinite'):
         z = _impedances(m, system)
-        return lumped_bha(groups.psi, kind.split('_')[1], z['axial'], z['torsional'],
-                          kappa_d=kappa_d)
+        variant = 'I' if kind == 'semi_infinite' else kind.split('_')[1]
+        model = lumped_bha(groups.psi, variant, z['axial'], z['torsional'], kappa_d=kappa_d)
+        if kind == 'semi_infinite':  # massless limit of lumped model I (§5.2)
+            model.name = 'semi_infinite'
+        return model
     if kind == 'fem':
         if system is None:
             raise ParameterError('model fem needs units: si and a drill_string section')
@@ -180,7 +192,7 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
             eta_u=_number(m, 'eta_u', 0.0, 'model.'), eta_phi=_number(m, 'eta_phi', 0.0, 'model.'),
             top_drive=m.get('top_drive', 'speed'), axial_top=m.get('axial_top', 'hook_load'))
     raise ParameterError(f'unknown model.type {kind!r} (rgd, rgd_axial, rgd_k, axial_chain, '
-                         'coupled_chain, lumped_I, lumped_II, fem)')
+                         'coupled_chain, lumped_I, lumped_II, semi_infinite, fem)')
 
 
 def _impedances(m: dict, system) -> dict:

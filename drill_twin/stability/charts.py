@@ -21,16 +21,18 @@ poorly).
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..physics.scenario import apply_overrides, scenario_from_dict
-from .linearize import linearize
+from .linearize import linearize_scenario
 from .spectrum import rightmost_roots
 
-__all__ = ['ChartResult', 'parse_axis', 'stability_chart', 'plot_chart']
+__all__ = ['ChartResult', 'parse_axis', 'stability_chart', 'plot_chart', 'chart_pool']
 
 
 @dataclass
@@ -68,7 +70,7 @@ def _point(raw, x_key, x, y_key, y):
     ups = x if x_key == 'upsilon_o' else (y if y_key == 'upsilon_o' else None)
     if ups is not None:
         g = g.replace(W_o=g.n_b * g.lam + 2 * math.pi * ups / g.omega_o)
-    return linearize(sc.model, g)
+    return linearize_scenario(sc, g)
 
 
 def _row(args):
@@ -90,9 +92,17 @@ def _row(args):
     return absc, unst
 
 
+def chart_pool(workers: int | None = None) -> ProcessPoolExecutor:
+    """A process pool for charts.  'spawn' start method: forking a process whose
+    BLAS thread pool is already running can deadlock the children."""
+    return ProcessPoolExecutor(max_workers=workers or os.cpu_count(),
+                               mp_context=multiprocessing.get_context('spawn'))
+
+
 def stability_chart(raw: dict, x_key: str, xs, y_key: str, ys, workers: int | None = None,
                     count: int = 16, order: int | None = None,
-                    threshold: float = 1e-9) -> ChartResult:
+                    threshold: float = 1e-9, pool: ProcessPoolExecutor | None = None
+                    ) -> ChartResult:
     """Evaluate the chart of configuration ``raw`` (a YAML mapping) on ``xs`` × ``ys``.
 
     A root counts as unstable when its real part exceeds ``threshold`` (units
@@ -104,11 +114,14 @@ def stability_chart(raw: dict, x_key: str, xs, y_key: str, ys, workers: int | No
     xs = np.asarray(xs, float)
     ys = np.asarray(ys, float)
     jobs = [(raw, x_key, xs, y_key, float(y), count, order, threshold) for y in ys]
-    if workers == 1:
+    chunk = max(1, len(jobs) // 16)
+    if pool is not None:
+        rows = list(pool.map(_row, jobs, chunksize=chunk))
+    elif workers == 1:
         rows = [_row(j) for j in jobs]
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            rows = list(pool.map(_row, jobs, chunksize=max(1, len(jobs) // 16)))
+        with chart_pool(workers) as own:
+            rows = list(own.map(_row, jobs, chunksize=chunk))
     absc = np.array([r[0] for r in rows])
     unst = np.array([r[1] for r in rows])
     return ChartResult(x_key, y_key, xs, ys, absc, unst)

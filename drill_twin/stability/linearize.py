@@ -31,7 +31,7 @@ import numpy as np
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
 
-__all__ = ['LinearDDE', 'linearize', 'linearize_semi_infinite']
+__all__ = ['LinearDDE', 'linearize', 'linearize_semi_infinite', 'linearize_scenario']
 
 
 @dataclass
@@ -105,3 +105,12 @@ def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: 
     A0 = -np.outer(gain, sel)
     A1 = np.outer(gain, sel)
     return LinearDDE(A0, A1, groups.tau_10, ['u', 'phi'])
+
+
+def linearize_scenario(scenario, groups: BitRockGroups | None = None) -> LinearDDE:
+    """Linearisation of a :class:`~drill_twin.physics.scenario.Scenario` (at ``groups``)."""
+    groups = groups or scenario.groups
+    if scenario.stability_only:
+        z = scenario.impedances()
+        return linearize_semi_infinite(groups, scenario.model.psi, z['axial'], z['torsional'])
+    return linearize(scenario.model, groups)
