@@ -92,6 +92,7 @@ def test_fem_stable_point_decays_at_the_root_rate():
 
 @pytest.mark.parametrize('overrides, window', [(['model.type=lumped_I'], (5.0, 40.0)),
                                                (['model.type=lumped_II'], (3.0, 18.0)),
+                                               (['model.type=lumped_III'], (4.0, 16.0)),
                                                (['model.axial_top=velocity'], (20.0, 45.0))])
 def test_lumped_and_velocity_top_models(overrides, window):
     sc = load_scenario('benchmark_fem', overrides)

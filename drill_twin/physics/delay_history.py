@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ['new_history', 'push_sample', 'delayed_state']
+__all__ = ['new_history', 'push_sample', 'delayed_state', 'velocities_at_time']
 
 H_T, H_U, H_PHI, H_DU, H_DPHI = 0, 1, 2, 3, 4
 M_START, M_COUNT, M_OVERFLOW = 0, 1, 2
@@ -140,3 +140,42 @@ def delayed_state(hist, meta, phi_target, out):
     out[0] = t0 + s * h
     out[1] = _hermite(hist[H_U, i0], hist[H_U, i1], hist[H_DU, i0], hist[H_DU, i1], h, s)
     out[2] = _hermite(p0, p1, dp0, dp1, h, s) - phi_target
+
+
+@njit(cache=True)
+def velocities_at_time(hist, meta, t, out):
+    """Bit velocities (U', Φ') at time ``t`` from the derivative of the Hermite interpolant.
+
+    Used for the constant (wave round-trip) delays of lumped model III.  Times
+    before the oldest sample return its velocities (and count an overflow).
+    """
+    cap = hist.shape[1]
+    start = meta[M_START]
+    count = meta[M_COUNT]
+    if t <= hist[H_T, start]:
+        if t < hist[H_T, start]:
+            meta[M_OVERFLOW] += 1
+        out[0] = hist[H_DU, start]
+        out[1] = hist[H_DPHI, start]
+        return
+    last = (start + count - 1) % cap
+    if t >= hist[H_T, last]:
+        out[0] = hist[H_DU, last]
+        out[1] = hist[H_DPHI, last]
+        return
+    lo = 0
+    hi = count - 1
+    while hi - lo > 1:  # invariant: t[lo] < t <= t[hi]
+        mid = (lo + hi) // 2
+        if hist[H_T, (start + mid) % cap] < t:
+            lo = mid
+        else:
+            hi = mid
+    i0 = (start + lo) % cap
+    i1 = (start + hi) % cap
+    h = hist[H_T, i1] - hist[H_T, i0]
+    s = (t - hist[H_T, i0]) / h
+    out[0] = _hermite_slope(hist[H_U, i0], hist[H_U, i1], hist[H_DU, i0], hist[H_DU, i1],
+                            h, s) / h
+    out[1] = _hermite_slope(hist[H_PHI, i0], hist[H_PHI, i1], hist[H_DPHI, i0],
+                            hist[H_DPHI, i1], h, s) / h

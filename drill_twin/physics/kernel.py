@@ -30,13 +30,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .delay_history import delayed_state, push_sample
+from .delay_history import delayed_state, push_sample, velocities_at_time
 from .interface_law import bit_torque, bit_weight, cutting_force, wear_flat_force
 
 # parameter vector layout ------------------------------------------------------------
 P_NB, P_LAM, P_BETA, P_OMEGA, P_UPS, P_WO, P_TO, P_PSI = 0, 1, 2, 3, 4, 5, 6, 7
 P_KTOP_A, P_CTOP_A, P_KTOP_T, P_CTOP_T, P_MTOP_T, P_DRIVE_TAU = 8, 9, 10, 11, 12, 13
-N_PARAMS = 14
+P_ZDEL_A, P_TDEL_A, P_ZDEL_T, P_TDEL_T = 14, 15, 16, 17  # delayed dash-pots (model III)
+N_PARAMS = 18
 # run-time inputs ----------------------------------------------------------------------
 IN_OMEGA_CMD, IN_AXIAL_FORCE, IN_MOTOR_TORQUE = 0, 1, 2
 N_INPUTS = 3
@@ -163,6 +164,14 @@ def rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, dstate):
     v = x[na:2 * na]
     _internal_force(A, u, v, ra)
     ra[0] += psi * IN[IN_AXIAL_FORCE]
+    z_t_delayed = 0.0
+    if P[P_ZDEL_A] > 0.0 or P[P_ZDEL_T] > 0.0:
+        # lumped model III: pipe force = radiation force of the bit velocity one wave
+        # round trip earlier (single-mass chains: DOF 0 is the bit)
+        velocities_at_time(hist, meta, tau - P[P_TDEL_A], dstate)
+        ra[0] -= P[P_ZDEL_A] * (dstate[0] - P[P_UPS])
+        velocities_at_time(hist, meta, tau - P[P_TDEL_T], dstate)
+        z_t_delayed = P[P_ZDEL_T] * (dstate[1] - P[P_OMEGA])
     if mode[MD_AX] == AX_STUCK:
         _solve(A, ra, ya)
         lam_c = ya[na - 1] / A[CH_Z, na - 1]
@@ -190,7 +199,7 @@ def rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, dstate):
         w = x[2 * na + nt:ith]
         _internal_force(T, ph, w, rt)
         rt[0] += (P[P_KTOP_T] * x[ith] + P[P_CTOP_T] * om_p + P[P_MTOP_T] * om_p_dot
-                  + IN[IN_MOTOR_TORQUE])
+                  + IN[IN_MOTOR_TORQUE] - z_t_delayed)
         if mode[MD_ANG] == ANG_STICK:
             _solve(T, rt, yt)
             lam_c = yt[nt - 1] / T[CH_Z, nt - 1]

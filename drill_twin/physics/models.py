@@ -83,6 +83,9 @@ class StringModel:
     axial: Chain
     torsional: Chain | None
     psi: float
+    #: delayed dash-pots on a single-mass bit (lumped model III):
+    #: (axial coefficient, axial delay, torsional coefficient, torsional delay)
+    delayed_damping: tuple | None = None
 
 
 def _tri_from_dense(A: np.ndarray) -> np.ndarray:
@@ -294,23 +297,39 @@ def pipe_impedances(system: DrillStringSI) -> dict:
     A semi-infinite elastic pipe loaded at its end answers a velocity V with the
     force ``A sqrt(Eρ) V`` (eqs 5.2.1-5.2.2: ∂U/∂t = -c ∂U/∂x), and a spin Ω with the
     torque ``J sqrt(Gρ) Ω``.  In units of M_BHA/t* and I/t* (the chain units):
-    ``axial = A_d sqrt(Eρ) t*/M``, ``torsional = J_d sqrt(Gρ) t*/I``.
+    ``axial = A_d sqrt(Eρ) t*/M``, ``torsional = J_d sqrt(Gρ) t*/I``; also the wave
+    round-trip times ``2 L_d/(c t*)`` along the pipe (units t*).
     """
     s = system.scales()
     z_u = system.pipe_area_m2 * math.sqrt(system.young_modulus_Pa * system.density_kg_m3)
     z_p = system.pipe_polar_m4 * math.sqrt(system.shear_modulus_Pa * system.density_kg_m3)
-    return {'axial': z_u * s.time_s / s.mass_kg, 'torsional': z_p * s.time_s / s.inertia_kgm2}
+    c_u = math.sqrt(system.young_modulus_Pa / system.density_kg_m3)
+    c_p = math.sqrt(system.shear_modulus_Pa / system.density_kg_m3)
+    return {'axial': z_u * s.time_s / s.mass_kg, 'torsional': z_p * s.time_s / s.inertia_kgm2,
+            'axial_round_trip': 2 * system.pipe_length_m / (c_u * s.time_s),
+            'torsional_round_trip': 2 * system.pipe_length_m / (c_p * s.time_s)}
 
 
 def lumped_bha(psi: float, variant: str, axial_impedance: float, torsional_impedance: float,
-               kappa_d: float | None = None) -> StringModel:
+               kappa_d: float | None = None, delays: tuple | None = None) -> StringModel:
     """Lumped models of thesis App. B: a rigid BHA under a drill pipe.
 
     ``'I'``: the pipe is a semi-infinite radiation boundary both axially and
     torsionally (dash-pots of the pipe impedances to the nominal motion,
     eqs B.2.3-B.2.4).  ``'II'``: axially the pipe is the spring κ_d to an imposed
     surface velocity, torsionally still a radiation dash-pot (eqs B.2.5-B.2.6).
+    ``'III'``: the pipe force is the radiation force of the bit velocity one
+    wave round trip earlier, ``z_u u'(τ - τ_2)`` and ``z_φ φ'(τ - τ_3)``
+    (eqs B.2.7-B.2.8, as printed), with ``τ_2 = 2L_d/(c_u t*)``,
+    ``τ_3 = 2L_d/(c_φ t*)`` given in ``delays``.
     """
+    if variant == 'III':
+        if not delays or min(delays) <= 0:
+            raise ParameterError('lumped model III needs positive wave round-trip delays')
+        free = lumped_chain([1.0], [0.0], top_fixed=False)
+        return StringModel('lumped_III', free, lumped_chain([1.0], [0.0], top_fixed=False),
+                           float(psi), delayed_damping=(axial_impedance, delays[0],
+                                                        torsional_impedance, delays[1]))
     tors = lumped_chain([1.0], [0.0], damping=[torsional_impedance])
     if variant == 'I':
         axial = lumped_chain([1.0], [0.0], damping=[axial_impedance])
@@ -319,5 +338,5 @@ def lumped_bha(psi: float, variant: str, axial_impedance: float, torsional_imped
             raise ParameterError('lumped model II needs kappa_d > 0')
         axial = lumped_chain([1.0], [kappa_d])
     else:
-        raise ParameterError(f"lumped model variant must be 'I' or 'II', got {variant!r}")
+        raise ParameterError(f"lumped model variant must be 'I', 'II' or 'III', got {variant!r}")
     return StringModel(f'lumped_{variant}', axial, tors, float(psi))

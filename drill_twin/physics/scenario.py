@@ -174,10 +174,13 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
     if kind == 'coupled_chain':
         return coupled_chain(int(_number(m, 'n', where='model.')), kappa_d, groups.psi,
                              axial_top=m.get('axial_top', 'velocity'))
-    if kind in ('lumped_I', 'lumped_II', 'semi_infinite'):
+    if kind in ('lumped_I', 'lumped_II', 'lumped_III', 'semi_infinite'):
         z = _impedances(m, system)
         variant = 'I' if kind == 'semi_infinite' else kind.split('_')[1]
-        model = lumped_bha(groups.psi, variant, z['axial'], z['torsional'], kappa_d=kappa_d)
+        delays = (z.get('axial_round_trip'), z.get('torsional_round_trip')) \
+            if variant == 'III' else None
+        model = lumped_bha(groups.psi, variant, z['axial'], z['torsional'], kappa_d=kappa_d,
+                           delays=delays)
         if kind == 'semi_infinite':  # massless limit of lumped model I (§5.2)
             model.name = 'semi_infinite'
         return model
@@ -192,15 +195,20 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
             eta_u=_number(m, 'eta_u', 0.0, 'model.'), eta_phi=_number(m, 'eta_phi', 0.0, 'model.'),
             top_drive=m.get('top_drive', 'speed'), axial_top=m.get('axial_top', 'hook_load'))
     raise ParameterError(f'unknown model.type {kind!r} (rgd, rgd_axial, rgd_k, axial_chain, '
-                         'coupled_chain, lumped_I, lumped_II, semi_infinite, fem)')
+                         'coupled_chain, lumped_I, lumped_II, lumped_III, semi_infinite, '
+                         'fem)')
 
 
 def _impedances(m: dict, system) -> dict:
     """Pipe radiation impedances: derived for SI configs, given otherwise."""
     if system is not None:
         return pipe_impedances(system)
-    return {'axial': _number(m, 'axial_impedance', where='model.'),
-            'torsional': _number(m, 'torsional_impedance', where='model.')}
+    out = {'axial': _number(m, 'axial_impedance', where='model.'),
+           'torsional': _number(m, 'torsional_impedance', where='model.')}
+    for key in ('axial_round_trip', 'torsional_round_trip'):
+        if key in m:
+            out[key] = _number(m, key, where='model.')
+    return out
 
 
 def scenario_from_dict(raw: dict) -> Scenario:

@@ -108,6 +108,12 @@ class Simulation:
             P[K.P_CTOP_T] = tors.c_top
             P[K.P_MTOP_T] = tors.m_top
         P[K.P_DRIVE_TAU] = drive_time_constant
+        extra_memory = 0.0
+        if model.delayed_damping is not None:
+            if self.A.shape[1] != 1 or self.T.shape[1] != 1:
+                raise ParameterError('delayed dash-pots need single-mass chains (model III)')
+            P[K.P_ZDEL_A], P[K.P_TDEL_A], P[K.P_ZDEL_T], P[K.P_TDEL_T] = model.delayed_damping
+            extra_memory = max(model.delayed_damping[1], model.delayed_damping[3])
         self.P = P
         self.inputs = np.zeros(K.N_INPUTS)
         self.inputs[K.IN_OMEGA_CMD] = groups.omega_o
@@ -117,10 +123,10 @@ class Simulation:
         self.mode = np.array([K.ANG_SLIP, K.AX_DOWN, 1], np.int64)
         self.tau = np.zeros(2)  # [τ, accumulated angular stick time]
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
-        cap = history_capacity or int(16 * groups.tau_10 / self.h) + 64
+        cap = history_capacity or int((16 * groups.tau_10 + 2 * extra_memory) / self.h) + 64
         self.hist, self.meta = new_history(cap)
         # nominal motion before τ = 0 (initial function of the DDE)
-        for k in range(int(1.5 * groups.tau_10 / self.h) + 2, -1, -1):
+        for k in range(int((1.5 * groups.tau_10 + extra_memory) / self.h) + 2, -1, -1):
             t = -k * self.h
             push_sample(self.hist, self.meta, t, groups.upsilon_o * t, groups.omega_o * t,
                         groups.upsilon_o, groups.omega_o)

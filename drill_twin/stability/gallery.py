@@ -43,6 +43,8 @@ FIGURES = {
     '5.2.2': [('semi-infinite string (benchmark SI)', 'benchmark_fem', _SEMI, _VW_SI, 1e-9)],
     'B.3.1': [('lumped model II (benchmark SI)', 'benchmark_fem', ['model.type=lumped_II'],
                _VW_SI, 1e-9),
+              ('lumped model III (benchmark SI)', 'benchmark_fem', ['model.type=lumped_III'],
+               _VW_SI, 1e-9),
               ('lumped model I (benchmark SI)', 'benchmark_fem', ['model.type=lumped_I'],
                _VW_SI, 1e-9)],
 }

@@ -24,7 +24,7 @@ A1[1,3] = -2 n_b ψ α_o, where the printed eq. 5.1.1 has -2(2 + n_b α_o) and
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,20 +36,32 @@ __all__ = ['LinearDDE', 'linearize', 'linearize_semi_infinite', 'linearize_scena
 
 @dataclass
 class LinearDDE:
-    """``y'(τ) = A0 y(τ) + A1 y(τ - delay)``; ``labels`` name the state entries."""
+    """``y'(τ) = A0 y(τ) + A1 y(τ - delay) + Σ_k B_k y(τ - τ_k)``.
+
+    ``labels`` name the state entries; ``extra`` lists ``(B_k, τ_k)`` for the
+    constant delays of lumped model III (empty for every other model).
+    """
 
     A0: np.ndarray
     A1: np.ndarray
     delay: float
     labels: list
+    extra: list = field(default_factory=list)
 
     @property
     def size(self) -> int:
         return self.A0.shape[0]
 
+    def terms(self):
+        """All delayed terms ``(matrix, delay)``."""
+        return [(self.A1, self.delay)] + list(self.extra)
+
     def characteristic_matrix(self, lam: complex) -> np.ndarray:
-        """Δ(λ) = λ I - A0 - A1 exp(-λ τ)."""
-        return lam * np.eye(self.size) - self.A0 - self.A1 * np.exp(-lam * self.delay)
+        """Δ(λ) = λ I - A0 - Σ A_k exp(-λ τ_k)."""
+        out = lam * np.eye(self.size) - self.A0
+        for B, tau in self.terms():
+            out = out - B * np.exp(-lam * tau)
+        return out
 
 
 def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
@@ -86,7 +98,16 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         A0[w] -= np.outer(col_t, sel)
         A1[w] += np.outer(col_t, sel)
         labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
-    return LinearDDE(A0, A1, groups.tau_10, labels)
+    extra = []
+    if model.delayed_damping is not None:  # lumped model III (single masses)
+        z_a, tau_a, z_t, tau_t = model.delayed_damping
+        B = np.zeros((n, n))
+        B[na, na] = -z_a / ax.dense('mass')[0, 0]
+        extra.append((B, tau_a))
+        B = np.zeros((n, n))
+        B[2 * na + nt, 2 * na + nt] = -z_t / tr.dense('mass')[0, 0]
+        extra.append((B, tau_t))
+    return LinearDDE(A0, A1, groups.tau_10, labels, extra)
 
 
 def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: float,

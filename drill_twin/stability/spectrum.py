@@ -180,7 +180,7 @@ def newton_root(dde: LinearDDE, lam0: complex, tol: float = 1e-13, maxit: int = 
     distance from ``lam0``.
     """
     n = dde.size
-    h = dde.delay
+    h = max(tau for _, tau in dde.terms())
     lam = complex(lam0)
     if not (np.isfinite(lam) and lam.real * h > -700):
         return complex(np.nan, np.nan), np.inf, np.inf
@@ -190,9 +190,10 @@ def newton_root(dde: LinearDDE, lam0: complex, tol: float = 1e-13, maxit: int = 
     c = v.copy()
     v = v / (c.conj() @ v)
     for _ in range(maxit):
-        E = np.exp(-lam * h)
-        Dl = lam * np.eye(n) - dde.A0 - dde.A1 * E
-        dDl = np.eye(n) + h * dde.A1 * E
+        Dl = dde.characteristic_matrix(lam)
+        dDl = np.eye(n, dtype=complex)
+        for B, tau in dde.terms():
+            dDl = dDl + tau * B * np.exp(-lam * tau)
         J = np.zeros((n + 1, n + 1), complex)
         J[:n, :n] = Dl
         J[:n, n] = dDl @ v
@@ -225,7 +226,30 @@ class RootsResult:
     zero_root: bool
 
 
+def multi_delay_collocation_matrix(dde: LinearDDE, N: int) -> np.ndarray:
+    """IG collocation for several rank-one delayed terms ``col_k sel_kᵀ y(τ - τ_k)``.
+
+    Each scalar ``s_k = sel_kᵀ y`` gets its own Chebyshev grid on [-τ_k, 0]:
+    size n + K N (the K = 1 case is :func:`reduced_collocation_matrix`).
+    """
+    n = dde.size
+    terms = dde.terms()
+    A = np.zeros((n + len(terms) * N, n + len(terms) * N))
+    A[:n, :n] = dde.A0
+    D0, _ = cheb(N)
+    for k, (B, tau) in enumerate(terms):
+        col, sel = rank_one_factors(B)
+        o = n + k * N
+        D = D0 * (2.0 / tau)
+        A[:n, o + N - 1] += col
+        A[o:o + N, :n] = np.outer(D[1:, 0], sel)
+        A[o:o + N, o:o + N] = D[1:, 1:]
+    return A
+
+
 def _collocation_eigs(dde: LinearDDE, N: int, factors):
+    if dde.extra:
+        return sla.eigvals(multi_delay_collocation_matrix(dde, N))
     if factors is not None:
         return sla.eigvals(reduced_collocation_matrix(dde, N, *factors))
     return sla.eigvals(collocation_matrix(dde, N))
@@ -238,7 +262,7 @@ def adaptive_order(dde: LinearDDE, minimum: int = DEFAULT_ORDER, cap: int = 1024
     the fastest mode is the largest |Im| of the eigenvalues of A0, with 30 % margin.
     """
     w_max = float(np.max(np.abs(np.linalg.eigvals(dde.A0).imag), initial=0.0))
-    need = int(np.ceil(1.3 * 2.0 * dde.delay * w_max / np.pi))
+    need = int(np.ceil(1.3 * 2.0 * max(t for _, t in dde.terms()) * w_max / np.pi))
     return int(min(max(minimum, need), cap))
 
 
@@ -258,11 +282,11 @@ def rightmost_roots(model_or_dde, groups: BitRockGroups | None = None, count: in
                                                                              groups)
     if order is None:
         order = adaptive_order(dde)
-    factors = rank_one_factors(dde.A1)
+    factors = None if dde.extra else rank_one_factors(dde.A1)
     eig = _collocation_eigs(dde, order, factors)
     eig = eig[np.isfinite(eig)]
     # keep candidates well resolved by the collocation: |Im| below the grid resolution
-    limit = 0.5 * np.pi * order / dde.delay
+    limit = 0.5 * np.pi * order / max(tau for _, tau in dde.terms())
     cand = eig[np.abs(eig.imag) < limit]
     cand = cand[np.argsort(-cand.real)][:count + 8]
     if seeds is not None and len(seeds):
