@@ -22,11 +22,11 @@ demo: $(STAMP)
 	$(PY) -m drill_twin.cli demo --out runs/demo
 
 test: $(STAMP)
-	$(PY) -m ruff check drill_twin test
+	$(PY) -m ruff check drill_twin test launch
 	$(PY) -m pytest -q
 
 lint: $(STAMP)
-	$(PY) -m ruff check drill_twin test
+	$(PY) -m ruff check drill_twin test launch
 
 clean:
 	rm -rf $(VENV) build install log runs *.egg-info

@@ -37,6 +37,8 @@ setup(
     entry_points={
         'console_scripts': [
             'drill-twin = drill_twin.cli:main',
+            'twin_node = drill_twin.ros.twin_node:main',
+            'soft_torque_node = drill_twin.ros.soft_torque_node:main',
         ],
     },
 )

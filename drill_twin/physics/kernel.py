@@ -338,6 +338,48 @@ def _settle(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds, 
 
 
 @njit(cache=True)
+def _write_record(tau, stick_time, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt,
+                  ds, row):
+    """Fill one record row (channels R_*) from the current state."""
+    na = A.shape[1]
+    nt = T.shape[1]
+    ith = 2 * na + 2 * nt
+    rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, ds)
+    ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
+    row[R_TAU] = tau
+    row[R_V] = vb
+    row[R_OMEGA] = omb
+    row[R_W] = aux[AX_W]
+    row[R_T] = aux[AX_T]
+    row[R_DELTA] = aux[AX_DELTA]
+    row[R_TAU1] = aux[AX_TAU1]
+    row[R_RES] = aux[AX_RES]
+    row[R_ANG] = mode[MD_ANG]
+    row[R_AX] = mode[MD_AX]
+    row[R_CONTACT] = mode[MD_CONTACT]
+    if nt > 0:
+        row[R_TSURF] = P[P_TO] + P[P_KTOP_T] * (x[ith] - x[2 * na]) \
+            + P[P_CTOP_T] * (x[ith + 1] - x[2 * na + nt])
+    else:
+        row[R_TSURF] = aux[AX_T]
+    row[R_OMSURF] = P[P_OMEGA] + x[ith + 1]
+    row[R_UBIT] = x[na - 1]
+    row[R_PHIBIT] = x[2 * na + nt - 1] if nt > 0 else x[ith]
+    row[R_VTOP] = P[P_UPS] + x[na]
+    row[R_STICK_TIME] = stick_time
+
+
+@njit(cache=True)
+def snapshot(tau_arr, x, mode, P, IN, A, T, hist, meta, row):
+    """The record row of the current state, without advancing."""
+    na = A.shape[1]
+    nt = T.shape[1]
+    _write_record(tau_arr[0], tau_arr[1], x, mode, P, IN, A, T, hist, meta,
+                  np.empty(x.size), np.zeros(N_AUX), np.empty(na), np.empty(na), np.empty(nt),
+                  np.empty(nt), np.zeros(3), row)
+
+
+@njit(cache=True)
 def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, record,
             record_every, n_rec, state_record):
     """Advance ``n_steps`` steps of size ``h`` (dimensionless) in place.
@@ -475,30 +517,9 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
                 return
         if record_every > 0 and (counters[C_STEPS] % record_every) == 0 \
                 and n_rec[0] < record.shape[0]:
-            # k1 holds rhs(x) in the current mode: aux is up to date
-            rhs(tau, x, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya, rt, yt, ds)
             r = n_rec[0]
-            record[r, R_TAU] = tau
-            record[r, R_V] = vb
-            record[r, R_OMEGA] = omb
-            record[r, R_W] = aux[AX_W]
-            record[r, R_T] = aux[AX_T]
-            record[r, R_DELTA] = aux[AX_DELTA]
-            record[r, R_TAU1] = aux[AX_TAU1]
-            record[r, R_RES] = aux[AX_RES]
-            record[r, R_ANG] = mode[MD_ANG]
-            record[r, R_AX] = mode[MD_AX]
-            record[r, R_CONTACT] = mode[MD_CONTACT]
-            if nt > 0:
-                record[r, R_TSURF] = P[P_TO] + P[P_KTOP_T] * (x[ith] - x[2 * na]) \
-                    + P[P_CTOP_T] * (x[ith + 1] - x[2 * na + nt])
-            else:
-                record[r, R_TSURF] = aux[AX_T]
-            record[r, R_OMSURF] = P[P_OMEGA] + x[ith + 1]
-            record[r, R_UBIT] = x[na - 1]
-            record[r, R_PHIBIT] = x[2 * na + nt - 1] if nt > 0 else x[ith]
-            record[r, R_VTOP] = P[P_UPS] + x[na]
-            record[r, R_STICK_TIME] = tau_arr[1]
+            _write_record(tau, tau_arr[1], x, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya,
+                          rt, yt, ds, record[r])
             if state_record.shape[0] > r:
                 for i in range(n):
                     state_record[r, i] = x[i]

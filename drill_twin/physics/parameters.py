@@ -262,6 +262,15 @@ class DrillStringSI:
         """Top-drive inertia I_DS = M_DS (l1² + l2²)/12 [kg·m²] (§2.2.1)."""
         return self.drive_mass_kg * (self.drive_width_m ** 2 + self.drive_depth_m ** 2) / 12.0
 
+    def buoyed_weight_N(self, mud_density_kg_m3: float = 1200.0,
+                        gravity_m_s2: float = 9.81) -> float:
+        """Buoyed weight of the whole string ∫ f_u dx [N] (§2.1: H = ∫ f_u dx - W)."""
+        _check_positive('mud_density_kg_m3', mud_density_kg_m3, allow_zero=True)
+        if mud_density_kg_m3 >= self.density_kg_m3:
+            raise ParameterError('mud density must be below the steel density')
+        volume = self.pipe_area_m2 * self.pipe_length_m + self.bha_area_m2 * self.bha_length_m
+        return (self.density_kg_m3 - mud_density_kg_m3) * gravity_m_s2 * volume
+
     # --- characteristic scales, eq. 2.4.1 ---------------------------------------
     def scales(self) -> Scales:
         C = self.pipe_torsional_stiffness_Nm

@@ -235,6 +235,13 @@ class Simulation:
         state = np.concatenate(states) if record_state and states else None
         return Trajectory(data, state)
 
+    def snapshot(self) -> dict:
+        """Current recorded channels (dimensionless), without advancing."""
+        row = np.zeros(K.N_RECORD)
+        K.snapshot(self.tau, self.x, self.mode, self.P, self.inputs, self.A, self.T, self.hist,
+                   self.meta, row)
+        return {name: float(row[i]) for name, i in _RECORD_NAMES.items()}
+
     @property
     def history_overflows(self) -> int:
         return int(self.meta[2])

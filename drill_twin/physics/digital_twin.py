@@ -1,0 +1,154 @@
+"""The digital twin in SI units: set-points in, rig and bit measurements out (no ROS here).
+
+:class:`DigitalTwin` wraps a :class:`~drill_twin.physics.simulation.Simulation`
+of an SI scenario with what a rig has: a surface speed set-point [rad/s], a
+hook load [N] (H = buoyed string weight − WOB, thesis §2.1), and the
+measurements of the bit and the surface in SI.  Invalid set-points raise
+:class:`SetpointError` with the reason and leave the twin untouched.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+from .parameters import ParameterError
+from .scenario import Scenario
+from .simulation import Simulation
+
+__all__ = ['DigitalTwin', 'SetpointError']
+
+
+class SetpointError(ValueError):
+    """A rejected set-point; the message says why."""
+
+
+class DigitalTwin:
+    """Real-time-capable twin of an SI scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An SI scenario (``units: si``).
+    mud_density_kg_m3 : float
+        Mud density for the buoyed string weight (hook load ↔ WOB).
+    drive_time_constant_s : float
+        First-order lag of the speed drive [s]; 0 = stiff speed drive.
+    max_surface_speed_rad_s : float
+        Set-points above are rejected as absurd.
+    severity_window_s : float
+        Sliding window of the stick-slip severity [s].
+    """
+
+    def __init__(self, scenario: Scenario, mud_density_kg_m3: float = 1200.0,
+                 drive_time_constant_s: float = 0.0, max_surface_speed_rad_s: float = 40.0,
+                 severity_window_s: float = 10.0):
+        if not scenario.is_si:
+            raise ParameterError('the digital twin needs an SI configuration (units: si)')
+        if scenario.stability_only:
+            raise ParameterError('model semi_infinite is a stability model only')
+        self.scenario = scenario
+        self.scales = scenario.scales
+        self.sim = Simulation(scenario.model, scenario.groups, scenario.time_step,
+                              drive_time_constant=drive_time_constant_s / scenario.scales.time_s)
+        # the configuration's initial perturbation, as in the offline run (a real rig is
+        # never exactly at the steady state)
+        self.sim.perturb(where=scenario.perturb_where, **scenario.initial_perturbation)
+        self.string_weight_N = scenario.system.buoyed_weight_N(mud_density_kg_m3)
+        self.max_surface_speed = float(max_surface_speed_rad_s)
+        self.nominal_wob_N = scenario.groups.W_o * self.scales.force_N
+        self.hook_load_N = self.string_weight_N - self.nominal_wob_N
+        self.surface_speed_setpoint = scenario.groups.omega_o / self.scales.time_s
+        self.rejected = 0
+        self._window = deque()
+        self._window_s = float(severity_window_s)
+
+    # --- set-points ------------------------------------------------------------
+    def set_surface_speed(self, omega_rad_s: float):
+        """Surface (motor) speed command [rad/s]; rejected if non-finite, < 0 or absurd."""
+        value = self._checked('surface speed', omega_rad_s, 0.0, self.max_surface_speed, 'rad/s')
+        self.sim.set_surface_speed(value * self.scales.time_s)
+        self.surface_speed_setpoint = value
+
+    def set_hook_load(self, hook_load_N: float):
+        """Hook load [N]; must lie in [0, buoyed string weight] (WOB >= 0)."""
+        value = self._checked('hook load', hook_load_N, 0.0, self.string_weight_N, 'N')
+        self.sim.set_axial_top_force((self.string_weight_N - self.nominal_wob_N - value)
+                                     / self.scales.force_N)
+        self.hook_load_N = value
+
+    def _checked(self, name, value, lo, hi, unit):
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            self.rejected += 1
+            raise SetpointError(f'{name} {value!r} is not a number') from None
+        if not math.isfinite(value):
+            self.rejected += 1
+            raise SetpointError(f'{name} {value} is not finite')
+        if not lo <= value <= hi:
+            self.rejected += 1
+            raise SetpointError(f'{name} {value:g} {unit} outside [{lo:g}, {hi:g}] {unit}')
+        return value
+
+    # --- time ----------------------------------------------------------------------
+    @property
+    def time_s(self) -> float:
+        return self.sim.time * self.scales.time_s
+
+    @property
+    def step_s(self) -> float:
+        return self.sim.h * self.scales.time_s
+
+    def advance_to(self, time_s: float, max_steps: int | None = None) -> int:
+        """Advance to the step that ends at or before ``time_s`` [s]; returns the steps taken
+        (capped by ``max_steps``)."""
+        steps = int(math.floor((time_s - self.time_s) / self.step_s + 1e-9))
+        if max_steps is not None:
+            steps = min(steps, max_steps)
+        if steps > 0:
+            self.sim.advance(steps)
+        return max(steps, 0)
+
+    # --- outputs -------------------------------------------------------------------
+    def measurements(self) -> dict:
+        """Bit and surface measurements in SI at the current time."""
+        snap = self.sim.snapshot()
+        s = self.scales
+        omega = snap['bit_angular_speed'] / s.time_s
+        now = self.time_s
+        self._window.append((now, omega))
+        while self._window and self._window[0][0] < now - self._window_s:
+            self._window.popleft()
+        speeds = np.array([w for _, w in self._window])
+        mean = speeds.mean()
+        severity = float((speeds.max() - speeds.min()) / (2 * mean)) if mean > 0 else math.inf
+        return {
+            'time_s': now,
+            'bit_axial_speed_m_s': snap['bit_axial_speed'] * s.speed_m_s,
+            'bit_angular_speed_rad_s': omega,
+            'weight_on_bit_N': snap['weight_on_bit'] * s.force_N,
+            'torque_on_bit_Nm': snap['torque_on_bit'] * s.torque_Nm,
+            'depth_of_cut_m': snap['depth_of_cut'] * s.depth_m,
+            'rate_of_penetration_m_s': snap['bit_axial_speed'] * s.speed_m_s,
+            'surface_speed_rad_s': snap['surface_speed'] / s.time_s,
+            'surface_torque_Nm': snap['surface_torque'] * s.torque_Nm,
+            'hook_load_N': self.hook_load_N,
+            'block_velocity_m_s': snap['top_axial_speed'] * s.speed_m_s,
+            'stuck': snap['angular_stick'] > 0.5,
+            'stick_slip_severity': severity,
+            'delay_residual_rad': snap['delay_residual'],
+        }
+
+    def health(self) -> dict:
+        return {'rejected_setpoints': self.rejected,
+                'history_overflows': self.sim.history_overflows,
+                'events': self.sim.event_count, 'impulses': self.sim.impulse_count}
+
+    def operating_point(self):
+        """Groups at the current set-points (for the stability advisory)."""
+        g = self.scenario.groups
+        wob = self.string_weight_N - self.hook_load_N
+        return g.replace(omega_o=max(self.surface_speed_setpoint, 1e-6) * self.scales.time_s,
+                         W_o=wob / self.scales.force_N)

@@ -1,0 +1,155 @@
+"""The ROS 2 nodes, in-process: one context, one executor, spin until a condition or a
+deadline (no sleeps as synchronisation)."""
+import math
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from geometry_msgs.msg import WrenchStamped  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from drill_twin.physics.scenario import load_scenario  # noqa: E402
+from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
+from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS, TwinNode  # noqa: E402
+from drill_twin.stability.spectrum import rightmost_roots  # noqa: E402
+
+
+class Rig:
+    """A context with the nodes under test and a probe node."""
+
+    def __init__(self):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.ex = SingleThreadedExecutor(context=self.ctx)
+        self.nodes = []
+        self.probe = self.add(rclpy.create_node('probe', context=self.ctx))
+        self.data = {}
+
+    def add(self, node):
+        self.nodes.append(node)
+        self.ex.add_node(node)
+        return node
+
+    def listen(self, topic, msg_type, extract, qos=qos_profile_sensor_data):
+        self.data[topic] = []
+        self.probe.create_subscription(msg_type, topic,
+                                       lambda m: self.data[topic].append(extract(m)), qos)
+
+    def publisher(self, topic):
+        return self.probe.create_publisher(Float64, topic, SETPOINT_QOS)
+
+    def spin_until(self, condition, timeout):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.ex.spin_once(timeout_sec=0.01)
+            if condition():
+                return True
+        return False
+
+    def close(self):
+        self.ex.shutdown()
+        for n in self.nodes:
+            n.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.close()
+
+
+def twin(rig, **params):
+    base = {'real_time_factor': 20.0, 'stability_period_s': 0.0}
+    base.update(params)
+    return rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
+        Parameter(k, value=v) for k, v in base.items()]))
+
+
+def test_speed_step_follows_the_drive_lag(rig):
+    node = twin(rig, drive_time_constant_s=0.5)
+    rig.listen('surface/top_drive_speed', Float64, lambda m: (node.twin.time_s, m.data))
+    assert rig.spin_until(lambda: len(rig.data['surface/top_drive_speed']) > 5, 20)
+    t0 = node.twin.time_s
+    rig.publisher('surface_speed_setpoint').publish(Float64(data=15.0))
+    assert rig.spin_until(lambda: node.twin.time_s > t0 + 3.0, 30)
+    series = np.array(rig.data['surface/top_drive_speed'])
+    after = series[series[:, 0] > t0 + 0.2]
+    # first-order drive: ω(t) = 15 + (12.57 - 15) e^{-(t - t_step)/T}; t_step within one tick
+    t_step = t0 + np.linspace(0.0, 0.25, 26)
+    fits = [np.abs(after[:, 1] - (15 + (12.57 - 15) * np.exp(-(after[:, 0] - ts) / 0.5))).max()
+            for ts in t_step]
+    assert min(fits) < 0.05
+    assert after[-1, 1] == pytest.approx(15.0, abs=0.01)
+
+
+def test_hook_load_change_changes_wob_in_the_mean(rig):
+    node = twin(rig)
+    rig.listen('bit/wrench', WrenchStamped, lambda m: (node.twin.time_s, m.wrench.force.x))
+    assert rig.spin_until(lambda: node.twin.time_s > 1.0, 20)
+    H0 = node.twin.hook_load_N
+    rig.publisher('hook_load_setpoint').publish(Float64(data=H0 - 10e3))
+    assert rig.spin_until(lambda: node.twin.time_s > 40.0, 60)
+    w = np.array(rig.data['bit/wrench'])
+    late = w[w[:, 0] > 10.0, 1]
+    # momentum balance: the mean WOB equals buoyed weight minus hook load
+    assert late.mean() == pytest.approx(node.twin.string_weight_N - (H0 - 10e3), rel=0.05)
+
+
+@pytest.mark.parametrize('bad', [float('nan'), float('inf'), -1.0, 1e6])
+def test_bad_setpoints_are_rejected_and_the_twin_keeps_running(rig, bad):
+    node = twin(rig)
+    assert rig.spin_until(lambda: node.twin.time_s > 0.5, 20)
+    speed = node.twin.surface_speed_setpoint
+    rig.publisher('surface_speed_setpoint').publish(Float64(data=bad))
+    rig.publisher('hook_load_setpoint').publish(Float64(data=bad))
+    assert rig.spin_until(lambda: node.twin.rejected >= 2, 10)
+    t = node.twin.time_s
+    assert rig.spin_until(lambda: node.twin.time_s > t + 1.0, 10)
+    assert node.twin.surface_speed_setpoint == speed
+
+
+def test_runtime_parameters_apply_or_are_rejected(rig):
+    node = twin(rig)
+    res = node.set_parameters([Parameter('real_time_factor', value=5.0)])[0]
+    assert res.successful
+    res = node.set_parameters([Parameter('config', value='rgd_stick_slip')])[0]
+    assert not res.successful and 'start-up' in res.reason
+
+
+def test_stability_advisory_matches_the_stability_module(rig):
+    twin(rig, stability_period_s=3600.0)
+    rig.listen('stability/spectral_abscissa', Float64, lambda m: m.data,
+               qos=SETPOINT_QOS)
+    assert rig.spin_until(lambda: rig.data['stability/spectral_abscissa'], 60)
+    sc = load_scenario('benchmark_fem')
+    ref = rightmost_roots(sc.model, sc.groups).abscissa / sc.scales.time_s
+    assert rig.data['stability/spectral_abscissa'][0] == pytest.approx(ref, rel=1e-6)
+
+
+def test_soft_torque_holds_setpoint_without_measurements(rig):
+    st = rig.add(SoftTorqueNode(context=rig.ctx))
+    rig.listen('surface_speed_command', Float64, lambda m: m.data)
+    rig.publisher('surface_speed_setpoint').publish(Float64(data=11.0))
+    assert rig.spin_until(lambda: len(rig.data['surface_speed_command']) > 5, 10)
+    assert all(c == 11.0 for c in rig.data['surface_speed_command'])
+    assert st.fallbacks == 1 and st.in_fallback
+
+
+def test_soft_torque_in_the_loop_commands_the_twin(rig):
+    node = twin(rig, real_time_factor=5.0)
+    st = rig.add(SoftTorqueNode(context=rig.ctx))
+    rig.listen('surface_speed_command', Float64, lambda m: m.data, qos=COMMAND_QOS)
+    rig.publisher('surface_speed_setpoint').publish(Float64(data=12.57))
+    assert rig.spin_until(lambda: len(rig.data['surface_speed_command']) > 50, 30)
+    assert not st.in_fallback
+    cmds = np.array(rig.data['surface_speed_command'])
+    assert np.all(np.isfinite(cmds)) and np.all(cmds >= 0)
+    assert node.last_command_time is not None   # the twin follows the controller
+    assert math.isclose(np.median(cmds), 12.57, rel_tol=0.05)
