@@ -153,3 +153,17 @@ def test_soft_torque_in_the_loop_commands_the_twin(rig):
     assert np.all(np.isfinite(cmds)) and np.all(cmds >= 0)
     assert node.last_command_time is not None   # the twin follows the controller
     assert math.isclose(np.median(cmds), 12.57, rel_tol=0.05)
+
+
+@pytest.mark.slow
+def test_stick_slip_at_the_benchmark_point_as_fast_as_possible_with_clock(rig):
+    """Thesis §3.3 without Soft-Torque: stick-slip develops (offline: first stick ~178 s)."""
+    from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Bool
+    node = twin(rig, as_fast_as_possible=True, publish_rate_hz=20.0)
+    rig.listen('bit/stuck', Bool, lambda m: m.data)
+    rig.listen('/clock', Clock, lambda m: m.clock.sec + 1e-9 * m.clock.nanosec, qos=10)
+    assert rig.spin_until(lambda: any(rig.data['bit/stuck']), 120)
+    assert 100.0 < node.twin.time_s < 300.0
+    clock = rig.data['/clock']
+    assert clock and all(b >= a for a, b in zip(clock, clock[1:]))

@@ -48,7 +48,8 @@ def test_no_backward_rotation_and_exact_stick(rgd_runs):
 
 @pytest.mark.parametrize('config, duration, stats_from, steps', [
     ('rgd_stick_slip', 400.0, 100.0, (0.002, 0.001)),
-    pytest.param('benchmark_fem', 1350.0, 250.0, (0.005, 0.0025), marks=pytest.mark.slow),
+    # FEM: on the developed limit cycle (the transient before ~600 s is chaotic)
+    pytest.param('benchmark_fem', 6000.0, 800.0, (0.005, 0.0025), marks=pytest.mark.slow),
 ])
 def test_halving_the_step_changes_statistics_below_one_percent(config, duration, stats_from,
                                                                steps):

@@ -250,8 +250,8 @@ def scenario_from_dict(raw: dict) -> Scenario:
     pert = {k: _number(pert, k, 0.0, 'simulation.initial_perturbation.')
             for k in ('u', 'v', 'phi', 'omega')}
     where = sim.get('perturb', 'bit')
-    if where not in ('bit', 'all'):
-        raise ParameterError("simulation.perturb must be 'bit' or 'all'")
+    if where not in ('bit', 'all', 'smooth'):
+        raise ParameterError("simulation.perturb must be 'bit', 'all' or 'smooth'")
     return Scenario(model=model, groups=groups, time_step=dt, duration=dur,
                     record_interval=max(rec, dt), initial_perturbation=pert,
                     perturb_where=where, scales=scales, system=system, kappa_d=kappa_d,

@@ -146,7 +146,11 @@ class Simulation:
                 where: str = 'bit'):
         """Add an instantaneous perturbation (units d*, d*/t*, rad, rad/t*).
 
-        ``where='bit'`` perturbs the bit DOFs, ``'all'`` every DOF (a rigid shift).
+        ``where='bit'`` perturbs the bit DOFs only, ``'all'`` every DOF (a rigid
+        shift), ``'smooth'`` a field compatible with the top boundary: uniform for a
+        free top, linear from zero at a prescribed top to the value at the bit (so
+        no element is suddenly strained; in a finite-element string a perturbation
+        of the bit node alone is a local strain spike that sticks the bit at once).
         """
         for name, val in (('u', u), ('v', v), ('phi', phi), ('omega', omega)):
             if not math.isfinite(val):
@@ -158,8 +162,17 @@ class Simulation:
                 continue
             if where == 'bit':
                 self.x[idx.stop - 1] += val
-            else:
+            elif where == 'all':
                 self.x[idx] += val
+            elif where == 'smooth':
+                chain = self.model.axial if name in ('u', 'v') else self.model.torsional
+                n = idx.stop - idx.start
+                fixed = chain.k_top > 0 or chain.c_top > 0
+                profile = np.arange(1, n + 1) / n if fixed else np.ones(n)
+                self.x[idx] += val * profile
+            else:
+                raise ParameterError(f"perturbation 'where' must be bit, all or smooth, "
+                                     f'got {where!r}')
         if self.groups.upsilon_o + self.x[sl['v'].stop - 1] < 0:
             self.mode[K.MD_AX] = K.AX_UP
 

@@ -286,3 +286,7 @@ def main(args=None):
         if rclpy.ok():
             rclpy.shutdown()
     return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
