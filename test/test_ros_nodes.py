@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from geometry_msgs.msg import WrenchStamped  # noqa: E402
+from geometry_msgs.msg import TwistStamped, WrenchStamped  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
@@ -75,6 +75,7 @@ def twin(rig, **params):
 def test_speed_step_follows_the_drive_lag(rig):
     node = twin(rig, drive_time_constant_s=0.5)
     rig.listen('surface/top_drive_speed', Float64, lambda m: (node.twin.time_s, m.data))
+    rig.listen('bit/velocity', TwistStamped, lambda m: (node.twin.time_s, m.twist.angular.x))
     assert rig.spin_until(lambda: len(rig.data['surface/top_drive_speed']) > 5, 20)
     t0 = node.twin.time_s
     rig.publisher('surface_speed_setpoint').publish(Float64(data=15.0))
@@ -87,6 +88,10 @@ def test_speed_step_follows_the_drive_lag(rig):
             for ts in t_step]
     assert min(fits) < 0.05
     assert after[-1, 1] == pytest.approx(15.0, abs=0.01)
+    # the bit follows through the string: its mean speed moves to the new set-point
+    bit = np.array(rig.data['bit/velocity'])
+    late = bit[bit[:, 0] > t0 + 1.5, 1]
+    assert late.mean() == pytest.approx(15.0, rel=0.1)
 
 
 def test_hook_load_change_changes_wob_in_the_mean(rig):

@@ -17,11 +17,13 @@ __all__ = ['run_closed_loop']
 
 def run_closed_loop(twin: DigitalTwin, controller: SoftTorqueController, rate_hz: float,
                     duration_s: float, setpoint_rad_s: float | None = None) -> dict:
-    """Run the loop; returns arrays ``time``, ``bit_angular_speed``, ``command`` (SI)."""
+    """Run the loop; returns arrays ``time``, ``bit_angular_speed``, ``bit_axial_speed``,
+    ``command``, ``stuck`` (SI)."""
     setpoint = twin.surface_speed_setpoint if setpoint_rad_s is None else setpoint_rad_s
     dt = 1.0 / rate_hz
     n = int(round(duration_s * rate_hz))
-    out = {k: np.empty(n) for k in ('time', 'bit_angular_speed', 'command', 'stuck')}
+    out = {k: np.empty(n) for k in ('time', 'bit_angular_speed', 'bit_axial_speed', 'command',
+                                    'stuck')}
     t = twin.time_s
     for i in range(n):
         m = twin.measurements()
@@ -29,6 +31,7 @@ def run_closed_loop(twin: DigitalTwin, controller: SoftTorqueController, rate_hz
         twin.set_surface_speed(cmd)
         out['time'][i] = m['time_s']
         out['bit_angular_speed'][i] = m['bit_angular_speed_rad_s']
+        out['bit_axial_speed'][i] = m['bit_axial_speed_m_s']
         out['command'][i] = cmd
         out['stuck'][i] = m['stuck']
         t += dt

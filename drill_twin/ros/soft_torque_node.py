@@ -5,6 +5,8 @@ Inputs: the operator's ``surface_speed_setpoint`` [rad/s] and the measured
 ``surface/torque`` [N m] (and ``surface/top_drive_speed`` for the start-up
 state).  Output: ``surface_speed_command`` [rad/s] at ``control_rate_hz``.
 Tuning (I_DS, k_f, c_f, ξ_opt) is computed from the string in ``config``.
+The controller integrates on the node clock, so with ``use_sim_time`` it
+follows the twin's ``/clock``.
 If torque measurements stop for ``measurement_timeout_s`` the node commands
 the operator set-point unchanged and says so (diagnostics + log); it resumes
 when measurements return.  ``enabled`` switches the controller at run time.
@@ -105,10 +107,13 @@ class SoftTorqueNode(Node):
     def _control(self):
         if self.setpoint is None:
             return  # nothing to track yet
+        # the node clock: wall time, or simulated time under use_sim_time (/clock)
+        clock_now = self.get_clock().now().nanoseconds * 1e-9
+        dt = (clock_now - self._last) if self._last is not None else 0.0
+        self._last = clock_now
+        if dt <= 0.0:
+            dt = 1.0 / self.get_parameter('control_rate_hz').value
         now = time.monotonic()
-        dt = (now - self._last) if self._last is not None else \
-            1.0 / self.get_parameter('control_rate_hz').value
-        self._last = now
         stale = self.torque_time is None or \
             now - self.torque_time > self.get_parameter('measurement_timeout_s').value
         if stale:
