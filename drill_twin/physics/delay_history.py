@@ -78,6 +78,21 @@ def _hermite_slope(y0, y1, d0, d1, h, s):
             + (-6 * s2 + 6 * s) * y1 + (3 * s2 - 2 * s) * h * d1)
 
 
+@njit(cache=True, inline='always')
+def _bracket(hist, row, start, count, value):
+    """Ring positions (lo, hi) with hist[row, lo] < value <= hist[row, hi] (row sorted)."""
+    cap = hist.shape[1]
+    lo = 0
+    hi = count - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if hist[row, (start + mid) % cap] < value:
+            lo = mid
+        else:
+            hi = mid
+    return (start + lo) % cap, (start + hi) % cap
+
+
 @njit(cache=True)
 def delayed_state(hist, meta, phi_target, out):
     """Bit state at the time the total angle was ``phi_target``.
@@ -104,16 +119,7 @@ def delayed_state(hist, meta, phi_target, out):
         out[1] = hist[H_U, last]
         out[2] = hist[H_PHI, last] - phi_target
         return
-    lo = 0
-    hi = last_k
-    while hi - lo > 1:  # invariant: Φ[lo] < target <= Φ[hi]
-        mid = (lo + hi) // 2
-        if hist[H_PHI, (start + mid) % cap] < phi_target:
-            lo = mid
-        else:
-            hi = mid
-    i0 = (start + lo) % cap
-    i1 = (start + hi) % cap
+    i0, i1 = _bracket(hist, H_PHI, start, count, phi_target)
     t0 = hist[H_T, i0]
     h = hist[H_T, i1] - t0
     p0 = hist[H_PHI, i0]
@@ -163,16 +169,7 @@ def velocities_at_time(hist, meta, t, out):
         out[0] = hist[H_DU, last]
         out[1] = hist[H_DPHI, last]
         return
-    lo = 0
-    hi = count - 1
-    while hi - lo > 1:  # invariant: t[lo] < t <= t[hi]
-        mid = (lo + hi) // 2
-        if hist[H_T, (start + mid) % cap] < t:
-            lo = mid
-        else:
-            hi = mid
-    i0 = (start + lo) % cap
-    i1 = (start + hi) % cap
+    i0, i1 = _bracket(hist, H_T, start, count, t)
     h = hist[H_T, i1] - hist[H_T, i0]
     s = (t - hist[H_T, i0]) / h
     out[0] = _hermite_slope(hist[H_U, i0], hist[H_U, i1], hist[H_DU, i0], hist[H_DU, i1],

@@ -15,9 +15,8 @@ from __future__ import annotations
 
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
@@ -25,14 +24,10 @@ from std_msgs.msg import Float64
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from ..physics.soft_torque import SoftTorqueController, soft_torque_si
+from .common import float_range, run_node
 from .twin_node import COMMAND_QOS, SETPOINT_QOS
 
 __all__ = ['SoftTorqueNode', 'main']
-
-
-def _range(lo, hi, text):
-    return ParameterDescriptor(description=text, floating_point_range=[
-        FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)])
 
 
 class SoftTorqueNode(Node):
@@ -43,12 +38,12 @@ class SoftTorqueNode(Node):
         p = self.declare_parameter
         p('config', 'benchmark_fem', ParameterDescriptor(
             description='string configuration the tuning is computed from (SI)'))
-        p('control_rate_hz', 100.0, _range(1.0, 5000.0, 'command rate [Hz]'))
+        p('control_rate_hz', 100.0, float_range(1.0, 5000.0, 'command rate [Hz]'))
         p('enabled', True, ParameterDescriptor(description='Soft-Torque on/off'))
-        p('max_surface_speed_rad_s', 40.0, _range(0.1, 100.0, 'command upper bound'))
-        p('max_acceleration_rad_s2', 20.0, _range(0.01, 1000.0, 'command rate limit'))
-        p('measurement_timeout_s', 0.5, _range(0.01, 60.0, 'torque silence before fallback'))
-        p('torque_filter_s', 1000.0, _range(0.1, 1e6, 'reference-torque low-pass [s]'))
+        p('max_surface_speed_rad_s', 40.0, float_range(0.1, 100.0, 'command upper bound'))
+        p('max_acceleration_rad_s2', 20.0, float_range(0.01, 1000.0, 'command rate limit'))
+        p('measurement_timeout_s', 0.5, float_range(0.01, 60.0, 'torque silence before fallback'))
+        p('torque_filter_s', 1000.0, float_range(0.1, 1e6, 'reference-torque low-pass [s]'))
         g = self.get_parameter
         scenario = load_scenario(g('config').value)
         if not scenario.is_si:
@@ -146,22 +141,7 @@ class SoftTorqueNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = SoftTorqueNode()
-    except (ParameterError, ValueError) as exc:
-        print(f'soft_torque_node: error: {exc}')
-        rclpy.shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node(SoftTorqueNode, 'soft_torque_node', args)
 
 
 if __name__ == '__main__':

@@ -18,10 +18,9 @@ from __future__ import annotations
 import threading
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock
@@ -30,6 +29,7 @@ from std_msgs.msg import Bool, Float64
 from ..physics.digital_twin import DigitalTwin, SetpointError
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
+from .common import float_range, run_node
 
 __all__ = ['TwinNode', 'main', 'SETPOINT_QOS', 'LATCHED_QOS']
 
@@ -45,11 +45,6 @@ _RESTART_ONLY = ('config', 'overrides', 'drive_time_constant_s', 'mud_density_kg
                  'as_fast_as_possible')
 
 
-def _range(lo, hi, text):
-    return ParameterDescriptor(description=text, floating_point_range=[
-        FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)])
-
-
 class TwinNode(Node):
     """The twin node (see module docstring)."""
 
@@ -59,13 +54,13 @@ class TwinNode(Node):
         p('config', 'benchmark_fem', ParameterDescriptor(
             description='configuration file or name in share/drill_twin/config (SI)'))
         p('overrides', [''], ParameterDescriptor(description='KEY=VALUE config overrides'))
-        p('real_time_factor', 1.0, _range(0.01, 1000.0, 'simulated seconds per wall second'))
-        p('publish_rate_hz', 100.0, _range(1.0, 2000.0, 'measurement publish rate [Hz]'))
-        p('drive_time_constant_s', 0.0, _range(0.0, 10.0, 'speed-drive lag [s], 0 = stiff'))
-        p('mud_density_kg_m3', 1200.0, _range(0.0, 3000.0, 'mud density [kg/m^3]'))
-        p('max_surface_speed_rad_s', 40.0, _range(0.1, 100.0, 'largest accepted set-point'))
-        p('command_timeout_s', 0.5, _range(0.01, 60.0, 'controller command validity [s]'))
-        p('stability_period_s', 30.0, _range(0.0, 3600.0, 'stability advisory period, 0=off'))
+        p('real_time_factor', 1.0, float_range(0.01, 1000.0, 'simulated seconds per wall second'))
+        p('publish_rate_hz', 100.0, float_range(1.0, 2000.0, 'measurement publish rate [Hz]'))
+        p('drive_time_constant_s', 0.0, float_range(0.0, 10.0, 'speed-drive lag [s], 0 = stiff'))
+        p('mud_density_kg_m3', 1200.0, float_range(0.0, 3000.0, 'mud density [kg/m^3]'))
+        p('max_surface_speed_rad_s', 40.0, float_range(0.1, 100.0, 'largest accepted set-point'))
+        p('command_timeout_s', 0.5, float_range(0.01, 60.0, 'controller command validity [s]'))
+        p('stability_period_s', 30.0, float_range(0.0, 3600.0, 'stability advisory period, 0=off'))
         p('as_fast_as_possible', False, ParameterDescriptor(
             description='run unthrottled and publish /clock'))
         g = self.get_parameter
@@ -197,15 +192,13 @@ class TwinNode(Node):
 
     def _publish(self, m):
         stamp = self.get_clock().now().to_msg()
-        tw = TwistStamped()
-        tw.header.stamp = stamp
-        tw.header.frame_id = 'bit'
+        tw, wr = TwistStamped(), WrenchStamped()
+        for msg in (tw, wr):
+            msg.header.stamp = stamp
+            msg.header.frame_id = 'bit'
         tw.twist.linear.x = m['bit_axial_speed_m_s']
         tw.twist.angular.x = m['bit_angular_speed_rad_s']
         self.pub['velocity'].publish(tw)
-        wr = WrenchStamped()
-        wr.header.stamp = stamp
-        wr.header.frame_id = 'bit'
         wr.wrench.force.x = m['weight_on_bit_N']
         wr.wrench.torque.x = m['torque_on_bit_Nm']
         self.pub['wrench'].publish(wr)
@@ -270,22 +263,7 @@ class TwinNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = TwinNode()
-    except (ParameterError, ValueError) as exc:
-        print(f'twin_node: error: {exc}')
-        rclpy.shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node(TwinNode, 'twin_node', args)
 
 
 if __name__ == '__main__':
