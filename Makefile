@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.drill_twin-installed
 REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt setup.py setup.cfg pyproject.toml
 
-.PHONY: venv demo test lint clean clean-cache
+.PHONY: venv demo test lint bench clean clean-cache
 
 venv: $(STAMP)
 
@@ -22,11 +22,14 @@ demo: $(STAMP)
 	$(PY) -m drill_twin.cli demo --out runs/demo
 
 test: $(STAMP)
-	$(PY) -m ruff check drill_twin test launch
+	$(PY) -m ruff check drill_twin test launch bench
 	$(PY) -m pytest -q
 
+bench: $(STAMP)
+	$(PY) bench/run.py
+
 lint: $(STAMP)
-	$(PY) -m ruff check drill_twin test launch
+	$(PY) -m ruff check drill_twin test launch bench
 
 clean:
 	rm -rf $(VENV) build install log runs *.egg-info

@@ -52,6 +52,14 @@ class LinearDDE:
     def size(self) -> int:
         return self.A0.shape[0]
 
+    def modes(self):
+        """Eigen-decomposition (μ, V) of A0, computed once per linearisation."""
+        cached = self.__dict__.get('_modes')
+        if cached is None:
+            cached = np.linalg.eig(self.A0)
+            self.__dict__['_modes'] = cached
+        return cached
+
     def terms(self):
         """All delayed terms ``(matrix, delay)``."""
         return [(self.A1, self.delay)] + list(self.extra)

@@ -104,7 +104,7 @@ class _TransferFunction:
     """``G(λ) = selᵀ (λI - A0)⁻¹ col`` in modal form; roots solve e^{-λh} G(λ) = 1."""
 
     def __init__(self, dde: LinearDDE, col, sel):
-        mu, V = np.linalg.eig(dde.A0)
+        mu, V = dde.modes()
         left = sel @ V
         right = np.linalg.solve(V, col)
         self.mu = mu
@@ -261,7 +261,7 @@ def adaptive_order(dde: LinearDDE, minimum: int = DEFAULT_ORDER, cap: int = 1024
     The band limit is that of the candidate filter in :func:`rightmost_roots`;
     the fastest mode is the largest |Im| of the eigenvalues of A0, with 30 % margin.
     """
-    w_max = float(np.max(np.abs(np.linalg.eigvals(dde.A0).imag), initial=0.0))
+    w_max = float(np.max(np.abs(dde.modes()[0].imag), initial=0.0))
     need = int(np.ceil(1.3 * 2.0 * max(t for _, t in dde.terms()) * w_max / np.pi))
     return int(min(max(minimum, need), cap))
 
