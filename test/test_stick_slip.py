@@ -164,3 +164,19 @@ def test_axial_chain_phase_locking(n, ab, expect):
         assert c.min() > 0.9
     else:
         assert c.min() < -0.85
+
+
+def test_unstable_time_step_is_rejected_and_auto_is_stable():
+    """A step outside the RK4 region of the FEM's fastest mode is refused (it would chatter
+    through thousands of spurious events); ``time_step: auto`` picks 80 % of the limit."""
+    from drill_twin.physics.parameters import ParameterError
+    with pytest.raises(ParameterError, match='RK4 stability region'):
+        sc = load_scenario('benchmark_fem', ['model.elements=512', 'model.bha_elements=85'])
+        Simulation(sc.model, sc.groups, sc.time_step)
+    sc = load_scenario('benchmark_fem', ['model.elements=512', 'model.bha_elements=85',
+                                         'simulation.time_step=auto'])
+    assert sc.time_step < 5e-3
+    sim = Simulation(sc.model, sc.groups, sc.time_step)
+    sim.perturb(where='smooth', **sc.initial_perturbation)
+    sim.run(2.0, 0.1)
+    assert sim.event_count < 50

@@ -30,6 +30,7 @@ from .models import (
     fem_drill_string,
     lumped_bha,
     lumped_chain,
+    max_stable_step,
     pipe_impedances,
     rgd,
     rgd_k,
@@ -243,7 +244,10 @@ def scenario_from_dict(raw: dict) -> Scenario:
     else:
         raise ParameterError(f"units must be 'si' or 'dimensionless', got {units!r}")
     model = _build_model(model_section, groups, kappa_d, system)
-    dt = _number(sim, 'time_step', 2e-3, 'simulation.')
+    if sim.get('time_step', 'auto') == 'auto':  # 80 % of the RK4 limit, at most 5e-3
+        dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.tau_10)
+    else:
+        dt = _number(sim, 'time_step', where='simulation.')
     pert = sim.get('initial_perturbation') or {}
     if not isinstance(pert, dict):
         raise ParameterError('simulation.initial_perturbation must map u, v, phi, omega')

@@ -15,7 +15,7 @@ import numpy as np
 
 from . import kernel as K
 from .delay_history import new_history, push_sample
-from .models import StringModel
+from .models import StringModel, max_stable_step
 from .parameters import BitRockGroups, ParameterError
 
 __all__ = ['Simulation', 'Trajectory', 'SimulationDiverged']
@@ -86,6 +86,11 @@ class Simulation:
             raise ParameterError(
                 f'time_step {time_step:g} is too large for the delay tau_10 = {groups.tau_10:g}'
                 ' (need <= tau_10/4)')
+        limit = max_stable_step(model, cap=max(time_step, 5e-3))
+        if time_step > limit:
+            raise ParameterError(
+                f'time_step {time_step:g} is outside the RK4 stability region of model '
+                f'{model.name} (largest stable step {limit:.3g}; use time_step: auto)')
         self.model = model
         self.groups = groups
         self.h = float(time_step)
