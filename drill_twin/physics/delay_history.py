@@ -15,7 +15,8 @@ sample are kept, so a long stick phase costs no memory.  If a lookup needs a
 sample that has been overwritten, the overflow counter is incremented.
 
 Ring layout: arrays ``hist`` of shape (5, capacity): rows τ, U, Φ, U', Φ';
-``meta = [start, count, overflows]`` (int64).
+``meta = [start, count, overflows, hint]`` (int64; hint = ring index of the
+last bracket found, tried first since the bracket moves little between calls).
 """
 from __future__ import annotations
 
@@ -25,12 +26,12 @@ from numba import njit
 __all__ = ['new_history', 'push_sample', 'delayed_state', 'velocities_at_time']
 
 H_T, H_U, H_PHI, H_DU, H_DPHI = 0, 1, 2, 3, 4
-M_START, M_COUNT, M_OVERFLOW = 0, 1, 2
+M_START, M_COUNT, M_OVERFLOW, M_HINT = 0, 1, 2, 3
 
 
 def new_history(capacity: int):
     """Empty ring buffer of ``capacity`` samples."""
-    return np.zeros((5, int(capacity))), np.zeros(3, np.int64)
+    return np.zeros((5, int(capacity))), np.zeros(4, np.int64)
 
 
 @njit(cache=True)
@@ -119,7 +120,27 @@ def delayed_state(hist, meta, phi_target, out):
         out[1] = hist[H_U, last]
         out[2] = hist[H_PHI, last] - phi_target
         return
-    i0, i1 = _bracket(hist, H_PHI, start, count, phi_target)
+    # the bracket moves by at most a few samples per call: try last call's first
+    k = (meta[M_HINT] - start) % cap
+    found = False
+    for _ in range(3):
+        if 0 <= k < count - 1:
+            a = hist[H_PHI, (start + k) % cap]
+            if a < phi_target:
+                if phi_target <= hist[H_PHI, (start + k + 1) % cap]:
+                    found = True
+                    break
+                k += 1
+            else:
+                k -= 1
+        else:
+            break
+    if found:
+        i0 = (start + k) % cap
+        i1 = (start + k + 1) % cap
+    else:
+        i0, i1 = _bracket(hist, H_PHI, start, count, phi_target)
+    meta[M_HINT] = i0
     t0 = hist[H_T, i0]
     h = hist[H_T, i1] - t0
     p0 = hist[H_PHI, i0]
