@@ -26,6 +26,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)
+	$(PY) -m pip install -q -c requirements/constraints.txt -r requirements/bench.txt
 	$(PY) bench/run.py
 
 lint: $(STAMP)

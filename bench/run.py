@@ -20,6 +20,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / 'bench'))
 
 from drill_twin.physics.scenario import load_scenario  # noqa: E402
 from drill_twin.physics.simulation import Simulation  # noqa: E402
@@ -215,6 +216,28 @@ def bench_physical_limit(smoke):
         '', '', None, f'{flops} flop/step, {achieved / 1e9:.2f} of {peak / 1e9:.2f} GFLOP/s')
 
 
+def bench_jitcdde(smoke):
+    try:
+        import jitcdde  # noqa: F401
+    except ImportError:
+        row('peers', 'RGD vs jitcdde', 'skipped', '', '>= 5x', None,
+            'pip install -r requirements/bench.txt')
+        return
+    import warnings
+
+    from jitcdde_peer import compare
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        rows = compare(smoke)
+    for h, err, wall, rtol, err_j, wall_j, t_end in rows:
+        ratio = wall_j / wall
+        ok = err_j <= err and ratio >= 5
+        row('peers', f'RGD vs jitcdde, drill_twin step {h:g} t*', f'{ratio:.1f}x', 'faster',
+            '>= 5x, error <=', ok if not smoke else None,
+            f'errors {err:.1e} vs {err_j:.1e} (jitcdde rtol {rtol:g}), smooth window '
+            f'{t_end:.1f} t*, C compile excluded')
+
+
 # --- 4: stability --------------------------------------------------------------------
 
 def bench_stability(smoke):
@@ -371,8 +394,7 @@ def main():
     for part in (bench_rtf, bench_scaling, bench_numpy_peer, bench_physical_limit,
                  bench_stability, bench_nodes, bench_memory):
         part(args.smoke)
-    row('peers', 'RGD vs jitcdde', 'not run', '', '>= 5x', None,
-        'jitcdde needs the implicit delay rewritten as an extra state; not built yet')
+    bench_jitcdde(args.smoke)
     if not args.smoke:
         write_markdown(args.out)
         print(f'\nwritten {args.out}')
