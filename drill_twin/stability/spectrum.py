@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-import scipy.sparse as sp
 
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
@@ -54,16 +53,11 @@ def cheb(N: int):
     return D, x
 
 
-def collocation_matrix(dde: LinearDDE, N: int, sparse: bool = False):
-    """The n(N+1) square IG collocation matrix (dense or CSR)."""
+def collocation_matrix(dde: LinearDDE, N: int) -> np.ndarray:
+    """The n(N+1) square IG collocation matrix (general delay matrix A1)."""
     n = dde.size
     D, _ = cheb(N)
     D = D * (2.0 / dde.delay)
-    if sparse:
-        top = sp.hstack([sp.csr_matrix(dde.A0), sp.csr_matrix((n, n * (N - 1))),
-                         sp.csr_matrix(dde.A1)])
-        rest = sp.kron(sp.csr_matrix(D[1:]), sp.identity(n, format='csr'))
-        return sp.vstack([top, rest]).tocsc()
     A = np.zeros((n * (N + 1), n * (N + 1)))
     A[:n, :n] = dde.A0
     A[:n, n * N:] = dde.A1
@@ -115,28 +109,24 @@ class _TransferFunction:
         self.uncoupled = mu[np.abs(self.p) <= 1e-13 * max(scale, 1e-300)]
 
     def f(self, lam):
-        d = lam - self.mu
-        g = np.sum(self.p / d)
-        dg = -np.sum(self.p / d ** 2)
+        """1 - e^{-λh} G(λ), its λ-derivative and G(λ), for an array of λ."""
+        d = lam[:, None] - self.mu[None, :]
+        g = (self.p / d).sum(axis=1)
+        dg = -(self.p / d ** 2).sum(axis=1)
         e = np.exp(-lam * self.h)
-        return 1.0 - e * g, e * (self.h * g - dg), g
+        return 1.0 - e * g, e * (self.h * g - dg), e * g
 
     def newton_batch(self, lam0, tol=1e-14, maxit=15):
         """Newton on many starting points at once (vectorised over candidates)."""
         lam = np.array(lam0, complex)
         start = lam.copy()
         active = np.isfinite(lam)
-        with np.errstate(all='ignore'):
+        with np.errstate(all='ignore'):  # a wild iterate may hit a pole: rejected below
             for _ in range(maxit):
                 if not active.any():
                     break
                 z = lam[active]
-                d = z[:, None] - self.mu[None, :]
-                g = (self.p / d).sum(axis=1)
-                dg = -(self.p / d ** 2).sum(axis=1)
-                e = np.exp(-z * self.h)
-                fv = 1.0 - e * g
-                dfv = e * (self.h * g - dg)
+                fv, dfv, _ = self.f(z)
                 step = -fv / dfv
                 z = z + step
                 bad = ~np.isfinite(z) | (z.real * self.h < -700)
@@ -145,32 +135,10 @@ class _TransferFunction:
                 done = bad | (np.abs(step) <= tol * np.maximum(1.0, np.abs(z)))
                 idx = np.flatnonzero(active)
                 active[idx[done]] = False
-            d = lam[:, None] - self.mu[None, :]
-            g = (self.p / d).sum(axis=1)
-            e = np.exp(-lam * self.h)
-            rel = np.abs(1.0 - e * g) / np.maximum(1.0, np.abs(e * g))
+            fv, _, eg = self.f(lam)
+            rel = np.abs(fv) / np.maximum(1.0, np.abs(eg))
         rel[~np.isfinite(lam)] = np.inf
         return lam, np.abs(lam - start), rel
-
-    def newton(self, lam0, tol=1e-14, maxit=40):
-        with np.errstate(all='ignore'):  # a wild iterate may hit a pole: rejected below
-            return self._newton(lam0, tol, maxit)
-
-    def _newton(self, lam0, tol, maxit):
-        lam = complex(lam0)
-        for _ in range(maxit):
-            if not (np.isfinite(lam) and lam.real * self.h > -700):
-                return complex(np.nan, np.nan), np.inf, np.inf
-            fv, dfv, _ = self.f(lam)
-            if dfv == 0 or not np.isfinite(dfv) or not np.isfinite(fv):
-                return complex(np.nan, np.nan), np.inf, np.inf
-            step = -fv / dfv
-            lam += step
-            if abs(step) <= tol * max(1.0, abs(lam)):
-                break
-        fv, _, g = self.f(lam)
-        rel = abs(fv) / max(1.0, abs(np.exp(-lam * self.h) * g))
-        return lam, abs(lam - lam0), rel
 
 
 def newton_root(dde: LinearDDE, lam0: complex, tol: float = 1e-13, maxit: int = 30):
