@@ -349,20 +349,25 @@ def max_stable_step(model: StringModel, cap: float = 5e-3) -> float:
     ``|R(hμ)| <= 1`` with the RK4 stability function R.  Stiffness-proportional
     damping puts the fastest modes near the negative real axis, so the
     imaginary-axis bound 2.83/ω_max alone is not enough.  Found by bisection on
-    h (dense eigenvalues: O(n³), ~1 s for 1000 elements).
+    h (dense eigenvalues: O(n³), ~1 s for 1000 elements, computed once per model
+    and kept on it, since a scenario with ``time_step: auto`` and the Simulation
+    built from it both ask).
     """
-    mus = []
-    for chain in (model.axial, model.torsional):
-        if chain is None:
-            continue
-        n = chain.n
-        Minv = np.linalg.inv(chain.dense('mass'))
-        A = np.block([[np.zeros((n, n)), np.eye(n)],
-                      [-Minv @ chain.dense('stiffness'), -Minv @ chain.dense('damping')]])
-        mus.append(np.linalg.eigvals(A))
-    mu = np.concatenate(mus)
-    # eigen-solver noise can put undamped or rigid-body modes a hair right of the axis
-    mu = np.minimum(mu.real, 0.0) + 1j * mu.imag
+    mu = model.__dict__.get('_chain_eigenvalues')
+    if mu is None:
+        mus = []
+        for chain in (model.axial, model.torsional):
+            if chain is None:
+                continue
+            n = chain.n
+            Minv = np.linalg.inv(chain.dense('mass'))
+            A = np.block([[np.zeros((n, n)), np.eye(n)],
+                          [-Minv @ chain.dense('stiffness'), -Minv @ chain.dense('damping')]])
+            mus.append(np.linalg.eigvals(A))
+        mu = np.concatenate(mus)
+        # eigen-solver noise can put undamped or rigid-body modes a hair right of the axis
+        mu = np.minimum(mu.real, 0.0) + 1j * mu.imag
+        model.__dict__['_chain_eigenvalues'] = mu
 
     def stable(h):
         z = h * mu
