@@ -74,6 +74,7 @@ class TwinNode(Node):
         self.overruns = 0
         self.blow_up = ''
         self.advisory = None
+        self._last_measurements = None  # of the latest tick (measurements() feeds a window)
         self._lock = threading.Lock()
 
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
@@ -188,6 +189,7 @@ class TwinNode(Node):
             return
         if target - self.twin.time_s > 2 * self.twin.step_s:
             self.overruns += 1
+        self._last_measurements = m
         self._publish(m)
 
     def _publish(self, m):
@@ -235,7 +237,9 @@ class TwinNode(Node):
 
     def _publish_diagnostics(self):
         health = self.twin.health()
-        m = self.twin.measurements()
+        m = self._last_measurements
+        if m is None:
+            return  # nothing simulated yet
         status = DiagnosticStatus(name='drill_twin: model', hardware_id='drill_twin')
         if self.blow_up:
             status.level, status.message = DiagnosticStatus.ERROR, f'model stopped: {self.blow_up}'
