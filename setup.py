@@ -39,6 +39,7 @@ setup(
             'drill-twin = drill_twin.cli:main',
             'twin_node = drill_twin.ros.twin_node:main',
             'soft_torque_node = drill_twin.ros.soft_torque_node:main',
+            'mcap_recorder = drill_twin.ros.recorder_node:main',
         ],
     },
 )

@@ -6,21 +6,27 @@ Sub-commands
 ``params``     print the SI scales and every derived dimensionless group
 ``stability``  characteristic roots / critical speed of the linearised model
 ``demo``       the main job of ``make demo``: the benchmark run(s) with outputs
+``mcap``       inspect / recover / export / plot a recording
+``replay``     republish a recording with its timing, or resimulate it
 """
 from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
+from .io.mcap_reader import RecordingError
 from .physics.parameters import ParameterError
 from .physics.scenario import Scenario, load_scenario
 from .physics.simulation import Simulation, SimulationDiverged
 from .physics.statistics import SERIES_UNITS, output_series, stick_slip_summary
+from .recording_cli import add_parsers as add_recording_parsers
 
 
 class _Progress:
@@ -76,6 +82,8 @@ def cmd_simulate(args) -> int:
     scenario = load_scenario(args.config, args.set)
     duration = _duration(args, scenario)
     progress = _Progress('simulating', sys.stderr.isatty() and not args.summary_json)
+    if args.out and args.out.endswith('.mcap'):
+        return _simulate_to_mcap(args, scenario, duration, progress)
     series, wall, sim = run_scenario(scenario, duration, progress)
     summary = stick_slip_summary(series, args.stats_from or 0.0)
     summary.update({'model': scenario.model.name, 'units': 'si' if scenario.is_si else
@@ -92,6 +100,35 @@ def cmd_simulate(args) -> int:
         print(json.dumps(summary))
     else:
         for key, value in summary.items():
+            print(f'{key:>22}: {value}')
+    return 0
+
+
+def _simulate_to_mcap(args, scenario: Scenario, duration, progress) -> int:
+    """The run as the twin node would publish it, recorded (simulated log time)."""
+    from .io.run_recorder import record_run
+    if not scenario.is_si:
+        raise ParameterError('MCAP recording needs an SI configuration (the twin publishes SI)')
+    stop = threading.Event()  # SIGINT/SIGTERM end the run between ticks; the file is closed
+    previous = {sig: signal.signal(sig, lambda *_: stop.set())
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    t0 = time.perf_counter()
+    try:
+        out = record_run(scenario, args.out, duration * scenario.time_unit_s, args.rate_hz,
+                         config=args.config, overrides=args.set, progress=progress,
+                         stop=stop.is_set)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    out['wall_s'] = time.perf_counter() - t0
+    if out['stopped']:
+        print(f"drill-twin: interrupted at {out['simulated_s']:.3f} s simulated; "
+              f"{out['path']} is complete", file=sys.stderr)
+        return 130
+    if args.summary_json:
+        print(json.dumps(out))
+    else:
+        for key, value in out.items():
             print(f'{key:>22}: {value}')
     return 0
 
@@ -272,7 +309,10 @@ def build_parser() -> argparse.ArgumentParser:
     common(s)
     s.add_argument('--duration', type=float, help='simulated time [s] (SI configs)')
     s.add_argument('--tau', type=float, help='simulated time in units of t*')
-    s.add_argument('--out', help='write the time series to this .npz file')
+    s.add_argument('--out', help='write the time series to this .npz file, or record the '
+                   'run as the twin node publishes it to this .mcap file')
+    s.add_argument('--rate-hz', type=float, default=100.0,
+                   help='.mcap output: measurement rate [Hz] (the node\'s publish rate)')
     s.add_argument('--summary-json', action='store_true', help='print one JSON summary')
     s.add_argument('--stats-from', type=float, default=0.0,
                    help='statistics window start, in the configuration time unit')
@@ -308,16 +348,26 @@ def build_parser() -> argparse.ArgumentParser:
                        'the embedded one, and with the external controller in the loop')
     s.add_argument('--out', default='runs/demo')
     s.set_defaults(func=cmd_demo)
+    add_recording_parsers(sub)
     return p
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM: unwind like Ctrl-C, so recordings get closed
 
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
     try:
         return args.func(args)
-    except (ParameterError, SimulationDiverged, ValueError) as exc:
+    except (ParameterError, SimulationDiverged, RecordingError, ValueError, OSError) as exc:
         print(f'drill-twin: error: {exc}', file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print('drill-twin: interrupted', file=sys.stderr)
+        return 130
 
 
 if __name__ == '__main__':

@@ -1,61 +1,20 @@
 """The ROS 2 nodes, in-process: one context, one executor, spin until a condition or a
 deadline (no sleeps as synchronisation)."""
 import math
-import time
 
 import numpy as np
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from geometry_msgs.msg import TwistStamped, WrenchStamped  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import qos_profile_sensor_data  # noqa: E402
+from ros_rig import Rig  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.physics.scenario import load_scenario  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
 from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS, TwinNode  # noqa: E402
 from drill_twin.stability.spectrum import rightmost_roots  # noqa: E402
-
-
-class Rig:
-    """A context with the nodes under test and a probe node."""
-
-    def __init__(self):
-        self.ctx = rclpy.Context()
-        rclpy.init(context=self.ctx)
-        self.ex = SingleThreadedExecutor(context=self.ctx)
-        self.nodes = []
-        self.probe = self.add(rclpy.create_node('probe', context=self.ctx))
-        self.data = {}
-
-    def add(self, node):
-        self.nodes.append(node)
-        self.ex.add_node(node)
-        return node
-
-    def listen(self, topic, msg_type, extract, qos=qos_profile_sensor_data):
-        self.data[topic] = []
-        self.probe.create_subscription(msg_type, topic,
-                                       lambda m: self.data[topic].append(extract(m)), qos)
-
-    def publisher(self, topic):
-        return self.probe.create_publisher(Float64, topic, SETPOINT_QOS)
-
-    def spin_until(self, condition, timeout):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            self.ex.spin_once(timeout_sec=0.01)
-            if condition():
-                return True
-        return False
-
-    def close(self):
-        self.ex.shutdown()
-        for n in self.nodes:
-            n.destroy_node()
-        rclpy.shutdown(context=self.ctx)
 
 
 @pytest.fixture

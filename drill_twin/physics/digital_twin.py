@@ -50,6 +50,10 @@ class DigitalTwin:
             raise ParameterError('model semi_infinite is a stability model only')
         self.scenario = scenario
         self.scales = scenario.scales
+        self._settings = {'mud_density_kg_m3': float(mud_density_kg_m3),
+                          'drive_time_constant_s': float(drive_time_constant_s),
+                          'max_surface_speed_rad_s': float(max_surface_speed_rad_s),
+                          'severity_window_s': float(severity_window_s)}
         self.sim = Simulation(scenario.model, scenario.groups, scenario.time_step,
                               drive_time_constant=drive_time_constant_s / scenario.scales.time_s)
         # the configuration's initial perturbation, as in the offline run (a real rig is
@@ -63,6 +67,10 @@ class DigitalTwin:
         self.rejected = 0
         self._window = deque()
         self._window_s = float(severity_window_s)
+
+    def settings(self) -> dict:
+        """The constructor's keyword arguments (to rebuild an identical twin)."""
+        return dict(self._settings)
 
     # --- set-points ------------------------------------------------------------
     def set_surface_speed(self, omega_rad_s: float):
@@ -100,6 +108,11 @@ class DigitalTwin:
     @property
     def step_s(self) -> float:
         return self.sim.h * self.scales.time_s
+
+    def advance_steps(self, steps: int):
+        """Advance by ``steps`` time steps."""
+        if steps > 0:
+            self.sim.advance(int(steps))
 
     def advance_to(self, time_s: float, max_steps: int | None = None) -> int:
         """Advance to the step that ends at or before ``time_s`` [s]; returns the steps taken

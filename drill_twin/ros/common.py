@@ -20,7 +20,7 @@ def run_node(node_class, label, args=None) -> int:
     rclpy.init(args=args)
     try:
         node = node_class()
-    except (ParameterError, ValueError) as exc:
+    except (ParameterError, ValueError, OSError) as exc:
         print(f'{label}: error: {exc}')
         rclpy.shutdown()
         return 2

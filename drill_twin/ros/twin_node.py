@@ -11,38 +11,41 @@ drives the motor while such commands keep arriving (within
 ``command_timeout_s``); otherwise the operator's ``surface_speed_setpoint``
 does.  The controller tracks the operator set-point itself, so this lets it
 act, and falls back safely to the operator when it goes silent.
-Topics, units, frames and QoS: see the README.
+Recording: with ``record_path`` the twin writes its own run to MCAP
+(:class:`drill_twin.io.run_recorder.TwinRecorder`: simulated log time,
+set-points at the simulated time they were applied), which
+``drill-twin replay --resimulate`` reproduces exactly.
+Topics, units, frames and QoS: see the README (the table is
+:data:`drill_twin.topics.TOPICS`).
 """
 from __future__ import annotations
 
 import threading
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
-from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Bool, Float64
+from std_msgs.msg import Float64
 
+from .. import topics as T
+from ..io.run_recorder import TwinRecorder
 from ..physics.digital_twin import DigitalTwin, SetpointError
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from .common import float_range, run_node
+from .messages import message_class, qos_profile, to_message
 
 __all__ = ['TwinNode', 'main', 'SETPOINT_QOS', 'LATCHED_QOS']
 
 #: set-points the twin must not miss (REP-2003: reliable, transient local)
-SETPOINT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+SETPOINT_QOS = qos_profile(T.SETPOINT)
 #: low-rate advisories a late joiner should still get
 LATCHED_QOS = SETPOINT_QOS
 #: controller commands: reliable, volatile (a stale command must not be replayed)
-COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+COMMAND_QOS = qos_profile(T.COMMAND)
 
 _RESTART_ONLY = ('config', 'overrides', 'drive_time_constant_s', 'mud_density_kg_m3',
-                 'as_fast_as_possible')
+                 'as_fast_as_possible', 'record_path', 'record_chunk_period_s')
 
 
 class TwinNode(Node):
@@ -63,6 +66,10 @@ class TwinNode(Node):
         p('stability_period_s', 30.0, float_range(0.0, 3600.0, 'stability advisory period, 0=off'))
         p('as_fast_as_possible', False, ParameterDescriptor(
             description='run unthrottled and publish /clock'))
+        p('record_path', '', ParameterDescriptor(
+            description='record the run to this .mcap file (simulated log time), "" = off'))
+        p('record_chunk_period_s', 0.25, float_range(
+            0.01, 10.0, 'longest span one MCAP chunk holds = most data a kill can lose [s]'))
         g = self.get_parameter
         overrides = [o for o in g('overrides').value if o]
         self.twin = DigitalTwin(load_scenario(g('config').value, overrides),
@@ -80,27 +87,24 @@ class TwinNode(Node):
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
         self.create_subscription(Float64, 'hook_load_setpoint', self._on_hook_load, SETPOINT_QOS)
         self.create_subscription(Float64, 'surface_speed_command', self._on_command, COMMAND_QOS)
-        sd = qos_profile_sensor_data
-        self.pub = {
-            'velocity': self.create_publisher(TwistStamped, 'bit/velocity', sd),
-            'wrench': self.create_publisher(WrenchStamped, 'bit/wrench', sd),
-            'doc': self.create_publisher(Float64, 'bit/depth_of_cut', sd),
-            'rop': self.create_publisher(Float64, 'bit/rate_of_penetration', sd),
-            'stuck': self.create_publisher(Bool, 'bit/stuck', sd),
-            'severity': self.create_publisher(Float64, 'bit/stick_slip_severity', sd),
-            'td_speed': self.create_publisher(Float64, 'surface/top_drive_speed', sd),
-            'torque': self.create_publisher(Float64, 'surface/torque', sd),
-            'hook': self.create_publisher(Float64, 'surface/hook_load', sd),
-            'block': self.create_publisher(Float64, 'surface/block_velocity', sd),
-            'abscissa': self.create_publisher(Float64, 'stability/spectral_abscissa',
-                                              LATCHED_QOS),
-            'critical': self.create_publisher(Float64, 'stability/critical_surface_speed',
-                                              LATCHED_QOS),
-            'diag': self.create_publisher(DiagnosticArray, '/diagnostics', 10),
-        }
+        self.pub = {t.name: (message_class(t.type), self.create_publisher(
+            message_class(t.type), t.name, qos_profile(t.qos)))
+            for t in T.TOPICS if t.role in ('measurement', 'advisory', 'diagnostics')}
+        self.recorder = None
+        if g('record_path').value:
+            self.recorder = TwinRecorder(
+                g('record_path').value, self.twin, g('config').value, overrides,
+                namespace=self.get_namespace(), chunk_period_s=g('record_chunk_period_s').value,
+                settings={'publish_rate_hz': g('publish_rate_hz').value,
+                          'real_time_factor': g('real_time_factor').value,
+                          'as_fast_as_possible': g('as_fast_as_possible').value,
+                          'source': 'twin_node'})
+            self.create_timer(g('record_chunk_period_s').value, self.recorder.flush)
         self.fast = g('as_fast_as_possible').value
         if self.fast:
-            self.clock_pub = self.create_publisher(Clock, '/clock', 10)
+            clock = T.BY_NAME['/clock']
+            self.pub[clock.name] = (message_class(clock.type), self.create_publisher(
+                message_class(clock.type), clock.name, qos_profile(clock.qos)))
         self.add_on_set_parameters_callback(self._on_parameters)
         self._start_wall = None  # anchored at the first tick (start-up cost is not an overrun)
         self._start_sim = self.twin.time_s
@@ -118,9 +122,20 @@ class TwinNode(Node):
             f'{self.twin.surface_speed_setpoint:.2f} rad/s')
 
     # --- inputs ----------------------------------------------------------------------
+    def _send(self, name, fields, time_s=None):
+        """Publish on a topic of the interface table and record it."""
+        cls, pub = self.pub[name]
+        if self.recorder is not None:
+            self.recorder.event(name, fields, time_s)
+        pub.publish(to_message(cls, fields))
+
     def _apply_speed(self, value, source):
+        """Apply a speed set-point or command; ``source`` is its topic (recorded as such;
+        the return to the operator set-point is recorded as ``surface_speed_setpoint``)."""
         try:
             with self._lock:
+                if self.recorder is not None:  # recorded as applied, rejected ones included
+                    self.recorder.setpoint(source, value)
                 self.twin.set_surface_speed(value)
             return True
         except SetpointError as exc:
@@ -140,6 +155,8 @@ class TwinNode(Node):
     def _on_hook_load(self, msg):
         try:
             with self._lock:
+                if self.recorder is not None:
+                    self.recorder.setpoint('hook_load_setpoint', msg.data)
                 self.twin.set_hook_load(msg.data)
         except SetpointError as exc:
             self.get_logger().warning(f'rejected hook_load_setpoint: {exc}; keeping '
@@ -169,7 +186,7 @@ class TwinNode(Node):
             self.last_command_time = None
             self.get_logger().warning('controller commands stopped: back to the operator '
                                       'set-point')
-            self._apply_speed(self.operator_speed, 'operator set-point')
+            self._apply_speed(self.operator_speed, 'surface_speed_setpoint')
         period = 1.0 / self.get_parameter('publish_rate_hz').value
         if self.fast:
             target = self.twin.time_s + period
@@ -193,29 +210,14 @@ class TwinNode(Node):
         self._publish(m)
 
     def _publish(self, m):
-        stamp = self.get_clock().now().to_msg()
-        tw, wr = TwistStamped(), WrenchStamped()
-        for msg in (tw, wr):
-            msg.header.stamp = stamp
-            msg.header.frame_id = 'bit'
-        tw.twist.linear.x = m['bit_axial_speed_m_s']
-        tw.twist.angular.x = m['bit_angular_speed_rad_s']
-        self.pub['velocity'].publish(tw)
-        wr.wrench.force.x = m['weight_on_bit_N']
-        wr.wrench.torque.x = m['torque_on_bit_Nm']
-        self.pub['wrench'].publish(wr)
-        for key, name in (('doc', 'depth_of_cut_m'), ('rop', 'rate_of_penetration_m_s'),
-                          ('severity', 'stick_slip_severity'),
-                          ('td_speed', 'surface_speed_rad_s'), ('torque', 'surface_torque_Nm'),
-                          ('hook', 'hook_load_N'), ('block', 'block_velocity_m_s')):
-            self.pub[key].publish(Float64(data=float(m[name])))
-        self.pub['stuck'].publish(Bool(data=bool(m['stuck'])))
+        stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
+        if self.recorder is not None:  # first: whatever a subscriber got is in the file
+            self.recorder.measurements(m, stamp)
+        for topic, fields in T.measurement_messages(m, stamp):
+            cls, pub = self.pub[topic.name]
+            pub.publish(to_message(cls, fields))
         if self.fast:
-            clock = Clock()
-            sec = int(m['time_s'])
-            clock.clock.sec = sec
-            clock.clock.nanosec = int((m['time_s'] - sec) * 1e9)
-            self.clock_pub.publish(clock)
+            self._send('/clock', T.clock_fields(m['time_s']), m['time_s'])
 
     # --- stability advisory (off the real-time path) ---------------------------------
     def _advise(self):
@@ -229,8 +231,9 @@ class TwinNode(Node):
                 absc = spectral_abscissa(model, groups) / t_star
                 wc = critical_speed(model, groups, 0.2, 60.0 * t_star, samples=12, rtol=1e-3)
                 self.advisory = (absc, (wc / t_star) if wc is not None else float('nan'))
-                self.pub['abscissa'].publish(Float64(data=float(absc)))
-                self.pub['critical'].publish(Float64(data=float(self.advisory[1])))
+                self._send('stability/spectral_abscissa', {'data': float(absc)})
+                self._send('stability/critical_surface_speed',
+                           {'data': float(self.advisory[1])})
             except (ParameterError, ValueError) as exc:  # e.g. WOB below the friction threshold
                 self.get_logger().info(f'stability advisory skipped: {exc}')
             self._stop.wait(self.get_parameter('stability_period_s').value)
@@ -240,13 +243,12 @@ class TwinNode(Node):
         m = self._last_measurements
         if m is None:
             return  # nothing simulated yet
-        status = DiagnosticStatus(name='drill_twin: model', hardware_id='drill_twin')
         if self.blow_up:
-            status.level, status.message = DiagnosticStatus.ERROR, f'model stopped: {self.blow_up}'
+            level, message = 2, f'model stopped: {self.blow_up}'
         elif self.overruns or health['history_overflows']:
-            status.level, status.message = DiagnosticStatus.WARN, 'overruns or delay overflow'
+            level, message = 1, 'overruns or delay overflow'
         else:
-            status.level, status.message = DiagnosticStatus.OK, 'running'
+            level, message = 0, 'running'
         values = {'simulated_time_s': m['time_s'], 'delay_residual_rad': m['delay_residual_rad'],
                   'overruns': self.overruns, 'rejected_setpoints': health['rejected_setpoints'],
                   'delay_history_overflows': health['history_overflows'],
@@ -254,15 +256,15 @@ class TwinNode(Node):
         if self.advisory:
             values['spectral_abscissa_1_s'], values['critical_surface_speed_rad_s'] = \
                 self.advisory
-        status.values = [KeyValue(key=k, value=f'{v}') for k, v in values.items()]
-        arr = DiagnosticArray(status=[status])
-        arr.header.stamp = self.get_clock().now().to_msg()
-        self.pub['diag'].publish(arr)
+        stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
+        self._send('/diagnostics', T.diagnostics_fields(stamp, level, message, values))
 
     def destroy_node(self):
         self._stop.set()
         if self._advisor is not None:
             self._advisor.join(timeout=30.0)
+        if self.recorder is not None:
+            self.recorder.close()
         return super().destroy_node()
 
 

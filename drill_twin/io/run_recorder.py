@@ -1,0 +1,172 @@
+"""Record a :class:`~drill_twin.physics.digital_twin.DigitalTwin` run to MCAP (no ROS needed).
+
+Used by the twin node (parameter ``record_path``) and by ``drill-twin simulate
+--out run.mcap``, so both write the same file.  Log time = simulated time
+(ns from the start of the run).  What is recorded, in the order it happened:
+
+* every set-point *as the twin applied it* (``surface_speed_setpoint``,
+  ``hook_load_setpoint``, ``surface_speed_command``), at the simulated time
+  it took effect, rejected ones included (they are rejected again on
+  resimulation); when the controller falls silent and the twin returns to
+  the operator set-point, that return is recorded as the operator set-point;
+* every tick's measurement topics (one message each, ``bit/velocity`` first);
+* stability advisories, diagnostics and ``/clock`` when the twin publishes them.
+
+Because the order and the simulated times are exact, feeding the recorded
+set-points into a fresh twin reproduces the run
+(:func:`drill_twin.io.resimulation.resimulate`).  The run description goes in
+the MCAP metadata record ``drill_twin``: the full resolved configuration
+(JSON), the twin's settings, package version, model and git revision.
+"""
+from __future__ import annotations
+
+import datetime
+import json
+import subprocess
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+
+from ..topics import BY_NAME, clock_fields, measurement_messages, stamp_fields
+from .mcap_reader import RUN_METADATA
+from .mcap_writer import McapRecorder
+
+__all__ = ['TwinRecorder', 'package_version', 'git_revision', 'qualified']
+
+FORMAT = 'drill_twin.recording/1'
+
+
+def package_version() -> str:
+    try:
+        return importlib_metadata.version('drill_twin')
+    except importlib_metadata.PackageNotFoundError:  # pragma: no cover - source tree only
+        return 'unknown'
+
+
+def git_revision() -> str:
+    """The source tree's git revision (``+dirty`` if modified), or '' when unknown."""
+    here = Path(__file__).resolve().parent
+    try:
+        rev = subprocess.run(['git', 'rev-parse', 'HEAD'], cwd=here, capture_output=True,
+                             text=True, timeout=5, check=True).stdout.strip()
+        dirty = subprocess.run(['git', 'status', '--porcelain', '--untracked-files=no'],
+                               cwd=here, capture_output=True, text=True, timeout=5).stdout
+        return rev + ('+dirty' if dirty.strip() else '')
+    except (OSError, subprocess.SubprocessError):
+        return ''
+
+
+def qualified(name: str, namespace: str = '/') -> str:
+    """Fully qualified topic name (rosbag2 stores absolute names)."""
+    if name.startswith('/'):
+        return name
+    return namespace.rstrip('/') + '/' + name
+
+
+class TwinRecorder:
+    """Records one twin run (see module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output ``.mcap`` file.
+    twin : DigitalTwin
+        The twin whose run is recorded.
+    config : str
+        Configuration name or path the twin was built from (for the record).
+    overrides : list of str
+        Configuration overrides (for the record).
+    namespace : str
+        ROS namespace of the twin's topics.
+    settings : dict
+        Extra run settings (publish rate, real-time factor, ...) stored verbatim.
+    chunk_period_s : float
+        Most log time / wall time one chunk holds [s] (what a SIGKILL can lose).
+    """
+
+    def __init__(self, path, twin, config: str = '', overrides=(), namespace: str = '/',
+                 settings: dict | None = None, chunk_period_s: float = 0.25):
+        self.twin = twin
+        self.namespace = namespace
+        self.writer = McapRecorder(path, chunk_period_s=chunk_period_s,
+                                   library=f'drill_twin {package_version()}')
+        self.writer.add_metadata(RUN_METADATA, {
+            'format': FORMAT, 'time_base': 'simulated',
+            'package_version': package_version(), 'git_revision': git_revision(),
+            'created_utc': datetime.datetime.now(datetime.UTC).isoformat(),
+            'config': str(config), 'overrides': json.dumps(list(overrides)),
+            'model': twin.scenario.model.name, 'namespace': namespace,
+            'scenario': json.dumps(twin.scenario.raw),
+            'twin': json.dumps(twin.settings()),
+            'settings': json.dumps(settings or {})})
+
+    @property
+    def path(self):
+        return self.writer.path
+
+    def _write(self, name, fields, time_s):
+        topic = BY_NAME[name]
+        self.writer.write(qualified(name, self.namespace), topic.type, topic.qos, fields,
+                          int(round(time_s * 1e9)))
+
+    def measurements(self, m: dict, stamp: dict | None = None):
+        """One tick: every measurement topic at the tick's simulated time.
+        ``stamp``: the header stamp the node published with (default: simulated time)."""
+        stamp = stamp or stamp_fields(m['time_s'])
+        for topic, fields in measurement_messages(m, stamp):
+            self._write(topic.name, fields, m['time_s'])
+
+    def setpoint(self, name: str, value: float):
+        """A set-point as the twin applied (or rejected) it, at the twin's current time."""
+        if BY_NAME[name].role != 'setpoint':
+            raise ValueError(f'{name} is not a set-point topic')
+        self._write(name, {'data': float(value)}, self.twin.time_s)
+
+    def event(self, name: str, fields: dict, time_s: float | None = None):
+        """An advisory or diagnostics message (fields as in :mod:`drill_twin.topics`)."""
+        self._write(name, fields, self.twin.time_s if time_s is None else time_s)
+
+    def clock(self, time_s: float):
+        self._write('/clock', clock_fields(time_s), time_s)
+
+    def flush(self):
+        self.writer.flush()
+
+    def close(self):
+        self.writer.close()
+
+
+def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config: str = '',
+               overrides=(), progress=None, chunk_period_s: float = 0.25, stop=None) -> dict:
+    """Run an SI scenario offline as the twin node would (same ticks, same topics) and
+    record it; ``progress(fraction)`` is called as it goes; ``stop()`` -> True ends the run
+    after the current tick (what a signal handler should set: an exception raised in the
+    middle of a write would leave the writer's indexes inconsistent).  The recording is
+    closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
+    from ..physics.digital_twin import DigitalTwin
+    if not (rate_hz > 0 and duration_s > 0):
+        raise ValueError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
+    twin = DigitalTwin(scenario)
+    rec = TwinRecorder(path, twin, config, overrides, chunk_period_s=chunk_period_s,
+                       settings={'publish_rate_hz': rate_hz, 'source': 'drill-twin simulate'})
+    ticks = int(round(duration_s * rate_hz))
+    stopped = False
+    try:  # the operator set-points in force, recorded as applied at t = 0
+        for name, value, apply in (
+                ('surface_speed_setpoint', twin.surface_speed_setpoint, twin.set_surface_speed),
+                ('hook_load_setpoint', twin.hook_load_N, twin.set_hook_load)):
+            apply(value)
+            rec.setpoint(name, value)
+        for k in range(1, ticks + 1):
+            if stop is not None and stop():
+                stopped = True
+                break
+            twin.advance_to(k / rate_hz)
+            rec.measurements(twin.measurements())
+            if progress is not None and k % 100 == 0:
+                progress(k / ticks)
+    finally:
+        rec.close()
+    if progress is not None and not stopped:
+        progress(1.0)
+    return {'stopped': stopped, 'ticks': ticks, 'messages': rec.writer.messages_written,
+            'path': str(rec.path), 'simulated_s': twin.time_s}

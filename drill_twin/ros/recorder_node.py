@@ -1,0 +1,86 @@
+"""``mcap_recorder``: record the drill_twin topics of a ROS graph to one MCAP file.
+
+Subscribes (raw CDR, no decode/encode) to every topic of the twin's interface
+(:data:`drill_twin.topics.TOPICS`: set-points, controller commands, bit and
+surface measurements, stability advisories, ``/diagnostics``, ``/clock``) with
+the QoS their publishers offer, and writes a rosbag2-profile MCAP file
+(:class:`drill_twin.io.mcap_writer.McapRecorder`).  Log time is this node's
+ROS time: run it with ``use_sim_time`` when the twin publishes ``/clock``.
+A chunk holds at most ``chunk_period_s``: SIGKILL loses at most that much;
+SIGINT/SIGTERM close the file properly.
+
+For an exactly reproducible recording of one twin (resimulation), use the
+twin's own ``record_path`` parameter instead: it records set-points at the
+simulated time the twin applied them, which an outside observer cannot know.
+"""
+from __future__ import annotations
+
+import datetime
+import json
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+
+from .. import topics as T
+from ..io.mcap_reader import RUN_METADATA
+from ..io.mcap_writer import McapRecorder
+from ..io.run_recorder import git_revision, package_version
+from .common import float_range, run_node
+from .messages import message_class, qos_profile
+
+__all__ = ['RecorderNode', 'main']
+
+
+class RecorderNode(Node):
+    """The recorder node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('mcap_recorder', **kwargs)
+        stamp = datetime.datetime.now(datetime.UTC).strftime('%Y%m%d_%H%M%S')
+        self.declare_parameter('path', f'drill_twin_{stamp}.mcap', ParameterDescriptor(
+            description='output .mcap file'))
+        self.declare_parameter('topics', [''], ParameterDescriptor(
+            description='topics to record (names of the twin interface), default all'))
+        self.declare_parameter('chunk_period_s', 0.25, float_range(
+            0.01, 10.0, 'longest span one chunk holds = most data a kill can lose [s]'))
+        g = self.get_parameter
+        wanted = [t for t in g('topics').value if t]
+        unknown = set(wanted) - set(T.BY_NAME)
+        if unknown:
+            raise ValueError(f'not drill_twin topics: {sorted(unknown)}; known: '
+                             f'{", ".join(T.BY_NAME)}')
+        self.writer = McapRecorder(g('path').value, chunk_period_s=g('chunk_period_s').value,
+                                   library=f'drill_twin {package_version()} mcap_recorder')
+        self.writer.add_metadata(RUN_METADATA, {
+            'format': 'drill_twin.recording/1', 'time_base': 'ros_time',
+            'use_sim_time': str(g('use_sim_time').value).lower(),
+            'package_version': package_version(), 'git_revision': git_revision(),
+            'created_utc': datetime.datetime.now(datetime.UTC).isoformat(),
+            'namespace': self.get_namespace(), 'topics': json.dumps(wanted or 'all')})
+        for topic in T.TOPICS:
+            if wanted and topic.name not in wanted:
+                continue
+            name = self.resolve_topic_name(topic.name)
+            self.create_subscription(
+                message_class(topic.type), topic.name,
+                lambda data, n=name, t=topic: self._record(n, t, data),
+                qos_profile(topic.qos), raw=True)
+        self.create_timer(g('chunk_period_s').value, self.writer.flush)
+        self.get_logger().info(f'recording {len(wanted) or len(T.TOPICS)} topics to '
+                               f'{self.writer.path}')
+
+    def _record(self, name, topic, data: bytes):
+        self.writer.write(name, topic.type, topic.qos, data, self.get_clock().now().nanoseconds)
+
+    def destroy_node(self):
+        self.writer.close()
+        self.get_logger().info(f'{self.writer.messages_written} messages in {self.writer.path}')
+        return super().destroy_node()
+
+
+def main(args=None):
+    return run_node(RecorderNode, 'mcap_recorder', args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

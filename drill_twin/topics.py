@@ -1,0 +1,126 @@
+"""The twin's ROS interface as plain data (imports no ROS).
+
+One table says, for every drill_twin topic, its message type, its QoS and how
+its fields come from :meth:`drill_twin.physics.digital_twin.DigitalTwin.measurements`.
+The ROS nodes build their publishers from it, the MCAP recorder its channels
+(schema + ``offered_qos_profiles``), and replay / resimulation decode with it,
+so a topic is described once.
+
+Fields are nested dicts in the layout of the ROS message (``{'twist':
+{'angular': {'x': 1.0}}}``); fields left out keep the message default (0).
+Units: SI (m, m/s, rad/s, N, N m); frame ``bit`` has x along the string axis,
+pointing down-hole, for both the axial and the angular components.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+__all__ = ['QoS', 'Topic', 'TOPICS', 'BY_NAME', 'SENSOR', 'SETPOINT', 'COMMAND', 'EVENTS',
+           'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
+           'FLOAT64', 'MEASUREMENTS']
+
+
+@dataclass(frozen=True)
+class QoS:
+    """A QoS profile as data (keep-last history; default deadline/lifespan/liveliness)."""
+
+    reliability: str  # 'reliable' | 'best_effort'
+    durability: str   # 'volatile' | 'transient_local'
+    depth: int
+
+
+#: measurements: best effort, volatile, depth 5 (= rclpy ``qos_profile_sensor_data``)
+SENSOR = QoS('best_effort', 'volatile', 5)
+#: set-points and low-rate advisories a late joiner must still get (REP-2003)
+SETPOINT = QoS('reliable', 'transient_local', 1)
+#: controller commands: reliable, volatile (a stale command must not be replayed)
+COMMAND = QoS('reliable', 'volatile', 1)
+#: /diagnostics and /clock (rclpy's default profile)
+EVENTS = QoS('reliable', 'volatile', 10)
+
+FLOAT64 = 'std_msgs/msg/Float64'
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One topic of the twin's interface.
+
+    ``role``: ``setpoint`` (into the twin), ``measurement`` (out, every tick),
+    ``advisory`` (stability, low rate), ``diagnostics``, ``clock``.
+    ``fields(m, stamp)`` maps a measurement dict to message fields (measurements only).
+    """
+
+    name: str
+    type: str
+    qos: QoS
+    role: str
+    fields: Callable[[dict, dict], dict] | None = None
+
+
+def stamp_fields(time_s: float | None = None, ns: int | None = None) -> dict:
+    """``builtin_interfaces/Time`` fields of a time given in s or (exactly) in ns."""
+    ns = int(round(time_s * 1e9)) if ns is None else int(ns)
+    return {'sec': ns // 1_000_000_000, 'nanosec': ns % 1_000_000_000}
+
+
+def _header(stamp):
+    return {'stamp': stamp, 'frame_id': 'bit'}
+
+
+def _float(key):
+    return lambda m, stamp: {'data': float(m[key])}
+
+
+TOPICS = (
+    Topic('surface_speed_setpoint', FLOAT64, SETPOINT, 'setpoint'),
+    Topic('hook_load_setpoint', FLOAT64, SETPOINT, 'setpoint'),
+    Topic('surface_speed_command', FLOAT64, COMMAND, 'setpoint'),
+    Topic('bit/velocity', 'geometry_msgs/msg/TwistStamped', SENSOR, 'measurement',
+          lambda m, st: {'header': _header(st), 'twist': {
+              'linear': {'x': float(m['bit_axial_speed_m_s'])},
+              'angular': {'x': float(m['bit_angular_speed_rad_s'])}}}),
+    Topic('bit/wrench', 'geometry_msgs/msg/WrenchStamped', SENSOR, 'measurement',
+          lambda m, st: {'header': _header(st), 'wrench': {
+              'force': {'x': float(m['weight_on_bit_N'])},
+              'torque': {'x': float(m['torque_on_bit_Nm'])}}}),
+    Topic('bit/depth_of_cut', FLOAT64, SENSOR, 'measurement', _float('depth_of_cut_m')),
+    Topic('bit/rate_of_penetration', FLOAT64, SENSOR, 'measurement',
+          _float('rate_of_penetration_m_s')),
+    Topic('bit/stuck', 'std_msgs/msg/Bool', SENSOR, 'measurement',
+          lambda m, st: {'data': bool(m['stuck'])}),
+    Topic('bit/stick_slip_severity', FLOAT64, SENSOR, 'measurement',
+          _float('stick_slip_severity')),
+    Topic('surface/top_drive_speed', FLOAT64, SENSOR, 'measurement',
+          _float('surface_speed_rad_s')),
+    Topic('surface/torque', FLOAT64, SENSOR, 'measurement', _float('surface_torque_Nm')),
+    Topic('surface/hook_load', FLOAT64, SENSOR, 'measurement', _float('hook_load_N')),
+    Topic('surface/block_velocity', FLOAT64, SENSOR, 'measurement',
+          _float('block_velocity_m_s')),
+    Topic('stability/spectral_abscissa', FLOAT64, SETPOINT, 'advisory'),
+    Topic('stability/critical_surface_speed', FLOAT64, SETPOINT, 'advisory'),
+    Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', EVENTS, 'diagnostics'),
+    Topic('/clock', 'rosgraph_msgs/msg/Clock', EVENTS, 'clock'),
+)
+BY_NAME = {t.name: t for t in TOPICS}
+MEASUREMENTS = tuple(t for t in TOPICS if t.role == 'measurement')
+
+
+def measurement_messages(m: dict, stamp: dict):
+    """``(topic, fields)`` of every measurement topic for one tick's measurements."""
+    return [(t, t.fields(m, stamp)) for t in MEASUREMENTS]
+
+
+def diagnostics_fields(stamp: dict, level: int, message: str, values: dict,
+                       name: str = 'drill_twin: model') -> dict:
+    """``diagnostic_msgs/DiagnosticArray`` fields with one status (level 0 OK, 1 WARN,
+    2 ERROR)."""
+    return {'header': {'stamp': stamp, 'frame_id': ''},
+            'status': [{'level': int(level), 'name': name, 'message': message,
+                        'hardware_id': 'drill_twin',
+                        'values': [{'key': k, 'value': f'{v}'} for k, v in values.items()]}]}
+
+
+def clock_fields(time_s: float) -> dict:
+    """``rosgraph_msgs/Clock`` fields."""
+    return {'clock': stamp_fields(time_s)}
