@@ -14,6 +14,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
+from drill_twin.io.mcap_reader import open_recording  # noqa: E402
 from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS  # noqa: E402
 
 
@@ -27,12 +28,15 @@ def _start(module, domain, *params):
 
 
 @pytest.mark.slow
-def test_twin_and_controller_in_two_processes():
+def test_twin_and_controller_in_two_processes(tmp_path):
+    """Also: the twin records itself and SIGTERM (what launch and systemd send) closes the
+    file properly."""
     domain = random.randint(20, 200)
     saved = os.environ.get('ROS_DOMAIN_ID')
     os.environ['ROS_DOMAIN_ID'] = str(domain)
+    record = tmp_path / 'run.mcap'
     procs = [_start('drill_twin.ros.twin_node', domain, 'real_time_factor:=2.0',
-                    'stability_period_s:=0.0'),
+                    'stability_period_s:=0.0', f'record_path:={record}'),
              _start('drill_twin.ros.soft_torque_node', domain, 'control_rate_hz:=100.0')]
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
@@ -68,8 +72,8 @@ def test_twin_and_controller_in_two_processes():
             os.environ.pop('ROS_DOMAIN_ID', None)
         else:
             os.environ['ROS_DOMAIN_ID'] = saved
-        for p in procs:
-            p.send_signal(signal.SIGINT)
+        procs[0].send_signal(signal.SIGTERM)
+        procs[1].send_signal(signal.SIGINT)
         for p in procs:
             try:
                 out, _ = p.communicate(timeout=20)
@@ -77,3 +81,6 @@ def test_twin_and_controller_in_two_processes():
                 p.kill()
                 out, _ = p.communicate()
             assert p.returncode == 0, out[-2000:]
+    rec = open_recording(record)  # complete (summary + footer), no recovery needed
+    assert rec.message_counts['/surface_speed_command'] > 100
+    assert rec.message_counts['/bit/velocity'] > 200
