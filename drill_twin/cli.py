@@ -6,6 +6,7 @@ Sub-commands
 ``params``     print the SI scales and every derived dimensionless group
 ``stability``  characteristic roots / critical speed of the linearised model
 ``demo``       the main job of ``make demo``: the benchmark run(s) with outputs
+``reproduce``  regenerate the thesis's computable figures (docs/reproduction.md)
 ``mcap``       inspect / recover / export / plot a recording
 ``replay``     republish a recording with its timing, or resimulate it
 """
@@ -294,6 +295,19 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_reproduce(args) -> int:
+    from .reproduce import reproduce
+    bar = _Progress('figures', sys.stderr.isatty() or args.progress)
+    t0 = time.perf_counter()
+    summary = reproduce(args.out, args.figure, quick=args.quick, workers=args.workers,
+                        progress=lambda fraction, _label: bar(fraction))
+    for fig_id, entry in summary.items():
+        print(f"Fig. {fig_id:>6}: {Path(args.out) / entry['png']}  ({entry['wall_s']:.1f} s)")
+    print(f'{len(summary)} figures in {time.perf_counter() - t0:.0f} s; numbers in '
+          f"{Path(args.out) / 'reproduction.json'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog='drill-twin', description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -348,6 +362,16 @@ def build_parser() -> argparse.ArgumentParser:
                        'the embedded one, and with the external controller in the loop')
     s.add_argument('--out', default='runs/demo')
     s.set_defaults(func=cmd_demo)
+    s = sub.add_parser('reproduce', help="regenerate the thesis's computable figures")
+    s.add_argument('--figure', action='append', help='thesis figure id, e.g. 3.3.2 '
+                   '(repeatable; default: all)')
+    s.add_argument('--out', default='docs/figures', help='output directory')
+    s.add_argument('--quick', action='store_true', help='short runs, coarse charts (smoke)')
+    s.add_argument('--workers', type=int, default=None, help='chart processes (default: '
+                   'all cores)')
+    s.add_argument('--progress', action='store_true', help='progress bar even if stderr is '
+                   'not a terminal')
+    s.set_defaults(func=cmd_reproduce)
     add_recording_parsers(sub)
     return p
 

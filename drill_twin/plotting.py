@@ -7,10 +7,11 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ['plot_bit_velocities', 'plot_recording']
+__all__ = ['plot_bit_velocities', 'plot_recording', 'stick_spans', 'plt']
 
 
-def _stick_spans(t, stuck):
+def stick_spans(t, stuck):
+    """(start, end) times of the runs where ``stuck`` is true."""
     edges = np.flatnonzero(np.diff(np.concatenate([[0], stuck.astype(int), [0]])))
     return [(t[a], t[min(b, len(t) - 1)]) for a, b in zip(edges[::2], edges[1::2])]
 
@@ -29,7 +30,7 @@ def plot_bit_velocities(runs: dict, path, time_label='time [s]'):
         ax2 = ax.twinx()
         ax2.plot(t, s['bit_angular_speed'], color='tab:red', lw=0.6, label='bit angular speed')
         ax2.set_ylabel('angular speed [rad/s]', color='tab:red')
-        for a, b in _stick_spans(t, np.asarray(s['angular_stick']) > 0.5):
+        for a, b in stick_spans(t, np.asarray(s['angular_stick']) > 0.5):
             ax.axvspan(a, b, color='0.85', lw=0)
         ax.set_title(title)
         ax.set_xlabel(time_label)
@@ -53,7 +54,7 @@ def plot_recording(series: dict, path, title: str = ''):
               (('rate_of_penetration_m_s', 'ROP'), None, 'rate of penetration [m/s]')]
     t = np.asarray(series['time_s'])
     fig, axes = plt.subplots(len(panels), 1, figsize=(10, 9), sharex=True)
-    spans = _stick_spans(t, np.asarray(series['stuck']) > 0.5) if 'stuck' in series else []
+    spans = stick_spans(t, np.asarray(series['stuck']) > 0.5) if 'stuck' in series else []
     for ax, (first, second, label) in zip(axes, panels):
         for key, name in (first, second) if second else (first,):
             if key in series:
