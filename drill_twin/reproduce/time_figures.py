@@ -31,6 +31,11 @@ def _first(tau, mask):
     return float(tau[np.argmax(mask)]) if np.any(mask) else None
 
 
+def _mean_stick_duration(tr, window):
+    spans = stick_spans(tr.tau[window], tr.angular_stick[window] > 0.5)
+    return float(np.mean([b - a for a, b in spans])) if spans else 0.0
+
+
 def _velocity_axes(ax, tr, title):
     ax.plot(tr.tau, tr.bit_axial_speed, color='tab:blue', lw=0.6)
     ax.set_ylabel('υ_o + υ (axial)', color='tab:blue')
@@ -45,7 +50,7 @@ def _velocity_axes(ax, tr, title):
 
 
 def _benchmark(overrides, quick):
-    sc, sim, tr = _run('benchmark_fem', overrides, duration=(150.0 if quick else 1000.0),
+    sc, sim, tr = _run('benchmark_fem', overrides, duration=(150.0 if quick else 1500.0),
                        interval=0.05)
     stick = tr.angular_stick > 0.5
     first = _first(tr.tau, stick)
@@ -60,17 +65,45 @@ def _benchmark(overrides, quick):
         'events': sim.event_count}
 
 
+#: choices the thesis leaves open, and what they do to the onset of stick-slip
+_SENSITIVITY = {
+    'as configured': [],
+    'perturbation x10': [f'simulation.initial_perturbation.{k}={v}' for k, v in
+                         (('u', 0.1), ('v', 0.1), ('phi', 1.0), ('omega', 1.0))],
+    'no Rayleigh damping': ['model.theta_u=0', 'model.theta_phi=0'],
+    'no damping, perturbation x10': ['model.theta_u=0', 'model.theta_phi=0'] + [
+        f'simulation.initial_perturbation.{k}={v}' for k, v in
+        (('u', 0.1), ('v', 0.1), ('phi', 1.0), ('omega', 1.0))],
+    '116 elements': ['model.elements=116', 'model.bha_elements=20'],
+}
+
+
+def _onset_sensitivity(drive_overrides, quick):
+    """First angular stick [s] for each variant of :data:`_SENSITIVITY` (full runs only)."""
+    if quick:
+        return {}
+    out = {}
+    for label, ov in _SENSITIVITY.items():
+        sc, _, tr = _run('benchmark_fem', drive_overrides + ov, duration=2000.0, interval=0.05)
+        first = _first(tr.tau, tr.angular_stick > 0.5)
+        out[label] = round(first * sc.scales.time_s, 1) if first else None
+    return {'first_angular_stick_s by variant (2000 t*)': out}
+
+
 def fig_3_3_2(quick):
     sc, tr, out = _benchmark([], quick)
     fig, ax = plt.subplots(figsize=(9, 4))
     _velocity_axes(ax, tr, 'Benchmark (FEM 58 elements, speed drive): bit velocities')
+    out.update(_onset_sensitivity([], quick))
     return fig, out
 
 
 def fig_3_3_3(quick):
-    sc, tr, out = _benchmark(['model.top_drive=soft_torque'], quick)
+    drive = ['model.top_drive=soft_torque']
+    sc, tr, out = _benchmark(drive, quick)
     fig, ax = plt.subplots(figsize=(9, 4))
     _velocity_axes(ax, tr, 'Benchmark with the Soft-Torque drive: bit velocities')
+    out.update(_onset_sensitivity(drive, quick))
     return fig, out
 
 
@@ -203,6 +236,7 @@ def _rgd2_figure(beta, quick):
     phi = tr.state[:, 2 * n:3 * n]
     return fig, {'first_angular_stick_tau': _first(tr.tau, stick),
                  'stick_fraction_second_half': float(stick[late].mean()),
+                 'mean_stick_duration_second_half': _mean_stick_duration(tr, late),
                  'bit_speed_min_max': [float(tr.bit_angular_speed[late].min()),
                                        float(tr.bit_angular_speed[late].max())],
                  'torsional_correlation_second_half': float(np.corrcoef(phi[late].T)[0, 1])}
@@ -226,6 +260,8 @@ def fig_5_1_5(quick):
         late = tr.tau > tr.tau[-1] / 2
         out[f'beta={beta}'] = {
             'first_angular_stick_tau': _first(tr.tau, tr.angular_stick > 0.5),
+            'stick_fraction_second_half': float((tr.angular_stick[late] > 0.5).mean()),
+            'mean_stick_duration_second_half': _mean_stick_duration(tr, late),
             'bit_speed_min_max_second_half': [float(tr.bit_angular_speed[late].min()),
                                               float(tr.bit_angular_speed[late].max())]}
         if beta == 0.3:  # (b) detail: one stick-slip cycle late in the run
