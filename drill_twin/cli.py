@@ -283,11 +283,19 @@ def cmd_demo(args) -> int:
     print('closed_loop_soft_torque (twin + external controller at 100 Hz): first angular '
           f"stick at {results['closed_loop_soft_torque']['first_angular_stick']} s "
           f"-> {out / 'closed_loop_soft_torque.npz'}")
+    # the benchmark as the twin node publishes it, recorded (replay / resimulate / Foxglove)
+    from .io.run_recorder import record_run
+    rec = record_run(load_scenario('benchmark_fem'), out / 'benchmark_fem.mcap',
+                     scenario.duration * scenario.time_unit_s, config='benchmark_fem')
+    results['recording'] = {k: rec[k] for k in ('path', 'messages', 'simulated_s')}
+    print(f"recording: {rec['messages']} messages -> {rec['path']} (try: drill-twin mcap plot "
+          f"{rec['path']} --out run.png)")
     (out / 'summary.json').write_text(json.dumps(results, indent=2))
     try:
         from .plotting import plot_bit_velocities
         png = out / 'benchmark_fem.png'
-        plot_bit_velocities({k: np.load(out / f'{k}.npz') for k in results}, png)
+        plot_bit_velocities({k: np.load(out / f'{k}.npz') for k in results if k != 'recording'},
+                            png)
         print(f'plot -> {png}')
     except ImportError:  # pragma: no cover - matplotlib is a hard dependency
         pass
