@@ -43,14 +43,19 @@ def package_version() -> str:
 
 
 def git_revision() -> str:
-    """The source tree's git revision (``+dirty`` if modified), or '' when unknown."""
+    """The source tree's git revision (``+dirty`` if modified), or '' when unknown (an
+    installed copy, or a checkout that is not this package's source)."""
     here = Path(__file__).resolve().parent
+
+    def git(*args):
+        return subprocess.run(['git', *args], cwd=here, capture_output=True, text=True,
+                              timeout=5, check=True).stdout.strip()
     try:
-        rev = subprocess.run(['git', 'rev-parse', 'HEAD'], cwd=here, capture_output=True,
-                             text=True, timeout=5, check=True).stdout.strip()
-        dirty = subprocess.run(['git', 'status', '--porcelain', '--untracked-files=no'],
-                               cwd=here, capture_output=True, text=True, timeout=5).stdout
-        return rev + ('+dirty' if dirty.strip() else '')
+        top = Path(git('rev-parse', '--show-toplevel'))
+        if (top / 'drill_twin' / 'io' / Path(__file__).name).resolve() != Path(__file__).resolve():
+            return ''  # e.g. installed into a workspace that happens to be a git repository
+        dirty = git('status', '--porcelain', '--untracked-files=no')
+        return git('rev-parse', 'HEAD') + ('+dirty' if dirty else '')
     except (OSError, subprocess.SubprocessError):
         return ''
 
