@@ -23,6 +23,7 @@ models with hundreds of elements cheap.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,16 +41,22 @@ __all__ = ['cheb', 'collocation_matrix', 'newton_root', 'rightmost_roots', 'Root
 DEFAULT_ORDER = 24
 
 
+@functools.lru_cache(maxsize=64)
 def cheb(N: int):
-    """Chebyshev points ``x_j = cos(jπ/N)`` and differentiation matrix (Trefethen)."""
+    """Chebyshev points ``x_j = cos(jπ/N)`` and differentiation matrix (Trefethen).
+
+    Cached (a chart asks for the same order at every point): read-only arrays."""
     if N == 0:
-        return np.zeros((1, 1)), np.ones(1)
-    x = np.cos(np.pi * np.arange(N + 1) / N)
-    c = np.hstack([2.0, np.ones(N - 1), 2.0]) * (-1.0) ** np.arange(N + 1)
-    X = np.tile(x, (N + 1, 1)).T
-    dX = X - X.T
-    D = np.outer(c, 1.0 / c) / (dX + np.eye(N + 1))
-    D -= np.diag(D.sum(axis=1))
+        D, x = np.zeros((1, 1)), np.ones(1)
+    else:
+        x = np.cos(np.pi * np.arange(N + 1) / N)
+        c = np.hstack([2.0, np.ones(N - 1), 2.0]) * (-1.0) ** np.arange(N + 1)
+        X = np.tile(x, (N + 1, 1)).T
+        dX = X - X.T
+        D = np.outer(c, 1.0 / c) / (dX + np.eye(N + 1))
+        D -= np.diag(D.sum(axis=1))
+    D.setflags(write=False)
+    x.setflags(write=False)
     return D, x
 
 
@@ -268,8 +275,9 @@ def rightmost_roots(model_or_dde, groups: BitRockGroups | None = None, count: in
         cand = cand[np.argsort(-cand.real)]
     cand = cand[cand.imag >= -1e-9]  # conjugates are added back below
     if tf is not None:
-        coupled = np.array([not np.any(np.abs(tf.uncoupled - z) < 1e-12 * max(1, abs(z)))
-                            for z in cand], bool)
+        near = np.abs(cand[:, None] - tf.uncoupled[None, :]) < \
+            1e-12 * np.maximum(1.0, np.abs(cand))[:, None]
+        coupled = ~near.any(axis=1)
         refined = np.empty(cand.size, complex)
         corrs = np.zeros(cand.size)
         rels = np.zeros(cand.size)
