@@ -16,7 +16,6 @@ from geometry_msgs.msg import TwistStamped  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
-from ros_rig import Rig  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.io.mcap_reader import RecordingError, open_recording, recover  # noqa: E402
@@ -27,13 +26,6 @@ from drill_twin.ros.player import Player  # noqa: E402
 from drill_twin.ros.recorder_node import RecorderNode  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
 from drill_twin.ros.twin_node import TwinNode  # noqa: E402
-
-
-@pytest.fixture
-def rig():
-    r = Rig()
-    yield r
-    r.close()
 
 
 def _params(**kw):

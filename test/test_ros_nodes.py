@@ -8,20 +8,12 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from geometry_msgs.msg import TwistStamped, WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from ros_rig import Rig  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.physics.scenario import load_scenario  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
 from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS, TwinNode  # noqa: E402
 from drill_twin.stability.spectrum import rightmost_roots  # noqa: E402
-
-
-@pytest.fixture
-def rig():
-    r = Rig()
-    yield r
-    r.close()
 
 
 def twin(rig, **params):
