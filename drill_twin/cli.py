@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .console import print_summary
 from .io.mcap_reader import RecordingError
 from .physics.parameters import ParameterError
 from .physics.scenario import Scenario, load_scenario
@@ -97,11 +98,7 @@ def cmd_simulate(args) -> int:
         np.savez_compressed(out, **series, units=json.dumps(
             {k: v[0 if scenario.is_si else 1] for k, v in SERIES_UNITS.items()}))
         summary['output'] = str(out)
-    if args.summary_json:
-        print(json.dumps(summary))
-    else:
-        for key, value in summary.items():
-            print(f'{key:>22}: {value}')
+    print_summary(summary, args.summary_json)
     return 0
 
 
@@ -126,11 +123,7 @@ def _simulate_to_mcap(args, scenario: Scenario, duration, progress) -> int:
         print(f"drill-twin: interrupted at {out['simulated_s']:.3f} s simulated; "
               f"{out['path']} is complete", file=sys.stderr)
         return 130
-    if args.summary_json:
-        print(json.dumps(out))
-    else:
-        for key, value in out.items():
-            print(f'{key:>22}: {value}')
+    print_summary(out, args.summary_json)
     return 0
 
 
@@ -184,11 +177,7 @@ def cmd_stability(args) -> int:
         out = {'critical_omega': wc}
         if scenario.is_si:
             out['critical_surface_speed_rad_s'] = wc / scenario.time_unit_s if wc else None
-    if args.json:
-        print(json.dumps(out))
-    else:
-        for key, value in out.items():
-            print(f'{key:>28}: {value}')
+    print_summary(out, args.json, width=28)
     return 0
 
 

@@ -4,17 +4,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .console import print_summary
 from .io.mcap_reader import open_recording, recover
 
 __all__ = ['add_parsers']
-
-
-def _print(out: dict, as_json: bool):
-    if as_json:
-        print(json.dumps(out))
-    else:
-        for key, value in out.items():
-            print(f'{key:>24}: {value}')
 
 
 def cmd_mcap(args) -> int:
@@ -23,7 +16,7 @@ def cmd_mcap(args) -> int:
             raise ValueError('mcap recover needs BROKEN.mcap FIXED.mcap')
         counts = recover(args.file, args.output)
         counts['output'] = args.output
-        _print(counts, args.json)
+        print_summary(counts, args.json, width=24)
         return 0
     rec = open_recording(args.file)
     if args.action == 'info':
@@ -34,13 +27,13 @@ def cmd_mcap(args) -> int:
                'time_base': run.get('time_base', 'unknown (not a drill_twin file)'),
                'model': run.get('model'), 'package_version': run.get('package_version'),
                'git_revision': run.get('git_revision')}
-        _print(out, args.json)
+        print_summary(out, args.json, width=24)
     elif args.action == 'export':
         if not args.csv:
             raise ValueError('mcap export needs --csv DIR')
         from .io.export import export_csv
         paths = export_csv(rec, args.csv, args.topics)
-        _print({t: str(p) for t, p in paths.items()}, args.json)
+        print_summary({t: str(p) for t, p in paths.items()}, args.json, width=24)
     elif args.action == 'plot':
         if not args.out:
             raise ValueError('mcap plot needs --out FILE.png')
@@ -67,7 +60,7 @@ def cmd_mcap(args) -> int:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         plot_recording(series, args.out, title=f'{Path(args.file).name}: '
                        f'{rec.run.get("model", "")}')
-        _print({'png': args.out, 'samples': len(series['time_s'])}, args.json)
+        print_summary({'png': args.out, 'samples': len(series['time_s'])}, args.json, width=24)
     return 0
 
 
