@@ -50,8 +50,7 @@ def stable_step(model, safety=0.8):
 def rtf(overrides, sim_seconds, step=None):
     sc = load_scenario('benchmark_fem', overrides)
     h = step or stable_step(sc.model)
-    sim = Simulation(sc.model, sc.groups, h)
-    sim.perturb(where=sc.perturb_where, **sc.initial_perturbation)
+    sim = Simulation.from_scenario(sc, time_step=h)
     sim.advance(10)                                     # JIT / cache load out of the timing
     steps = int(sim_seconds / sc.scales.time_s / h)
     t0 = time.perf_counter()
@@ -168,11 +167,9 @@ def bench_numpy_peer(smoke):
     t0 = time.perf_counter()
     ref = numpy_fem_smooth(sc, h, steps)
     t_np = time.perf_counter() - t0
-    sim = Simulation(sc.model, sc.groups, h)
-    sim.perturb(where=sc.perturb_where, **sc.initial_perturbation)
+    sim = Simulation.from_scenario(sc, time_step=h)
     sim.advance(1)
-    sim2 = Simulation(sc.model, sc.groups, h)
-    sim2.perturb(where=sc.perturb_where, **sc.initial_perturbation)
+    sim2 = Simulation.from_scenario(sc, time_step=h)
     t0 = time.perf_counter()
     tr = sim2.advance(steps, 1)
     t_nb = time.perf_counter() - t0
@@ -358,8 +355,7 @@ def rss_mb():
 
 def bench_memory(smoke):
     sc = load_scenario('benchmark_fem')
-    sim = Simulation(sc.model, sc.groups, sc.time_step)
-    sim.perturb(where=sc.perturb_where, **sc.initial_perturbation)
+    sim = Simulation.from_scenario(sc)
     per_min = int(60.0 / sc.scales.time_s / sc.time_step)
     sim.advance(per_min)
     a = rss_mb()

@@ -52,18 +52,9 @@ class _Progress:
             sys.stderr.flush()
 
 
-def build_simulation(scenario: Scenario) -> Simulation:
-    if scenario.stability_only:
-        raise ParameterError('model semi_infinite is a stability model only (thesis §5.2: '
-                             'a massless stuck bit never restarts); use lumped_I to simulate')
-    sim = Simulation(scenario.model, scenario.groups, scenario.time_step)
-    sim.perturb(where=scenario.perturb_where, **scenario.initial_perturbation)
-    return sim
-
-
 def run_scenario(scenario: Scenario, duration=None, progress=None):
     """Run a scenario; return (series in config units, wall seconds, simulation)."""
-    sim = build_simulation(scenario)
+    sim = Simulation.from_scenario(scenario)
     t0 = time.perf_counter()
     traj = sim.run(duration or scenario.duration, scenario.record_interval, progress=progress)
     wall = time.perf_counter() - t0

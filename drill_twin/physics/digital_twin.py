@@ -46,19 +46,16 @@ class DigitalTwin:
                  severity_window_s: float = 10.0):
         if not scenario.is_si:
             raise ParameterError('the digital twin needs an SI configuration (units: si)')
-        if scenario.stability_only:
-            raise ParameterError('model semi_infinite is a stability model only')
         self.scenario = scenario
         self.scales = scenario.scales
         self._settings = {'mud_density_kg_m3': float(mud_density_kg_m3),
                           'drive_time_constant_s': float(drive_time_constant_s),
                           'max_surface_speed_rad_s': float(max_surface_speed_rad_s),
                           'severity_window_s': float(severity_window_s)}
-        self.sim = Simulation(scenario.model, scenario.groups, scenario.time_step,
-                              drive_time_constant=drive_time_constant_s / scenario.scales.time_s)
-        # the configuration's initial perturbation, as in the offline run (a real rig is
-        # never exactly at the steady state)
-        self.sim.perturb(where=scenario.perturb_where, **scenario.initial_perturbation)
+        # with the configuration's initial perturbation, as in the offline run (a real rig
+        # is never exactly at the steady state)
+        self.sim = Simulation.from_scenario(
+            scenario, drive_time_constant=drive_time_constant_s / scenario.scales.time_s)
         self.string_weight_N = scenario.system.buoyed_weight_N(mud_density_kg_m3)
         self.max_surface_speed = float(max_surface_speed_rad_s)
         self.nominal_wob_N = scenario.groups.W_o * self.scales.force_N

@@ -137,6 +137,22 @@ class Simulation:
                         groups.upsilon_o, groups.omega_o)
 
     # --- state access -------------------------------------------------------------
+    @classmethod
+    def from_scenario(cls, scenario, time_step: float | None = None,
+                      drive_time_constant: float = 0.0, perturbation: dict | None = None):
+        """The simulation a :class:`~drill_twin.physics.scenario.Scenario` describes, with its
+        initial perturbation applied (``perturbation`` replaces the configured one;
+        ``time_step`` the configured step)."""
+        if scenario.stability_only:
+            raise ParameterError('model semi_infinite is a stability model only (thesis §5.2: '
+                                 'a massless stuck bit never restarts); use lumped_I to '
+                                 'simulate')
+        sim = cls(scenario.model, scenario.groups, time_step or scenario.time_step,
+                  drive_time_constant=drive_time_constant)
+        sim.perturb(where=scenario.perturb_where,
+                    **(scenario.initial_perturbation if perturbation is None else perturbation))
+        return sim
+
     @property
     def time(self) -> float:
         """Current dimensionless time τ."""

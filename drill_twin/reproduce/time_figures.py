@@ -20,8 +20,7 @@ def _run(config, overrides=(), duration=None, interval=None, record_state=False,
          perturb=None):
     """Scenario run as the configuration says (its perturbation unless ``perturb``)."""
     sc = load_scenario(config, list(overrides))
-    sim = Simulation(sc.model, sc.groups, sc.time_step)
-    sim.perturb(where=sc.perturb_where, **(perturb or sc.initial_perturbation))
+    sim = Simulation.from_scenario(sc, perturbation=perturb)
     tr = sim.run(duration or sc.duration, interval or sc.record_interval,
                  record_state=record_state)
     return sc, sim, tr
