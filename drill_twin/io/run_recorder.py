@@ -30,7 +30,7 @@ from ..topics import BY_NAME, clock_fields, measurement_messages, stamp_fields
 from .mcap_reader import RUN_METADATA
 from .mcap_writer import McapRecorder
 
-__all__ = ['TwinRecorder', 'package_version', 'git_revision', 'qualified']
+__all__ = ['TwinRecorder', 'package_version', 'git_revision', 'qualified', 'run_metadata']
 
 FORMAT = 'drill_twin.recording/1'
 
@@ -58,6 +58,15 @@ def git_revision() -> str:
         return git('rev-parse', 'HEAD') + ('+dirty' if dirty else '')
     except (OSError, subprocess.SubprocessError):
         return ''
+
+
+def run_metadata(time_base: str, namespace: str, **fields) -> dict:
+    """The ``drill_twin`` metadata record: what every recording carries (format, time base,
+    package version, git revision, creation time, namespace) plus ``fields``."""
+    return {'format': FORMAT, 'time_base': time_base, 'package_version': package_version(),
+            'git_revision': git_revision(),
+            'created_utc': datetime.datetime.now(datetime.UTC).isoformat(),
+            'namespace': namespace, **fields}
 
 
 def qualified(name: str, namespace: str = '/') -> str:
@@ -94,15 +103,10 @@ class TwinRecorder:
         self.namespace = namespace
         self.writer = McapRecorder(path, chunk_period_s=chunk_period_s,
                                    library=f'drill_twin {package_version()}')
-        self.writer.add_metadata(RUN_METADATA, {
-            'format': FORMAT, 'time_base': 'simulated',
-            'package_version': package_version(), 'git_revision': git_revision(),
-            'created_utc': datetime.datetime.now(datetime.UTC).isoformat(),
-            'config': str(config), 'overrides': json.dumps(list(overrides)),
-            'model': twin.scenario.model.name, 'namespace': namespace,
-            'scenario': json.dumps(twin.scenario.raw),
-            'twin': json.dumps(twin.settings()),
-            'settings': json.dumps(settings or {})})
+        self.writer.add_metadata(RUN_METADATA, run_metadata(
+            'simulated', namespace, config=str(config), overrides=json.dumps(list(overrides)),
+            model=twin.scenario.model.name, scenario=json.dumps(twin.scenario.raw),
+            twin=json.dumps(twin.settings()), settings=json.dumps(settings or {})))
 
     @property
     def path(self):

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from .. import topics as T
 from ..io.mcap_reader import RUN_METADATA
 from ..io.mcap_writer import McapRecorder
-from ..io.run_recorder import git_revision, package_version
+from ..io.run_recorder import package_version, run_metadata
 from .common import float_range, run_node
 from .messages import message_class, qos_profile
 
@@ -51,12 +51,9 @@ class RecorderNode(Node):
                              f'{", ".join(T.BY_NAME)}')
         self.writer = McapRecorder(g('path').value, chunk_period_s=g('chunk_period_s').value,
                                    library=f'drill_twin {package_version()} mcap_recorder')
-        self.writer.add_metadata(RUN_METADATA, {
-            'format': 'drill_twin.recording/1', 'time_base': 'ros_time',
-            'use_sim_time': str(g('use_sim_time').value).lower(),
-            'package_version': package_version(), 'git_revision': git_revision(),
-            'created_utc': datetime.datetime.now(datetime.UTC).isoformat(),
-            'namespace': self.get_namespace(), 'topics': json.dumps(wanted or 'all')})
+        self.writer.add_metadata(RUN_METADATA, run_metadata(
+            'ros_time', self.get_namespace(), topics=json.dumps(wanted or 'all'),
+            use_sim_time=str(g('use_sim_time').value).lower()))
         for topic in T.TOPICS:
             if wanted and topic.name not in wanted:
                 continue
