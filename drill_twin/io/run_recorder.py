@@ -117,11 +117,14 @@ class TwinRecorder:
         self.writer.write(qualified(name, self.namespace), topic.type, topic.qos, fields,
                           int(round(time_s * 1e9)))
 
-    def measurements(self, m: dict, stamp: dict | None = None):
+    def measurements(self, m: dict, stamp: dict | None = None, messages=None):
         """One tick: every measurement topic at the tick's simulated time.
-        ``stamp``: the header stamp the node published with (default: simulated time)."""
-        stamp = stamp or stamp_fields(m['time_s'])
-        for topic, fields in measurement_messages(m, stamp):
+        ``stamp``: the header stamp the node published with (default: simulated time);
+        ``messages``: the tick's :func:`~drill_twin.topics.measurement_messages` when the
+        caller has built them already (the node, to publish them)."""
+        if messages is None:
+            messages = measurement_messages(m, stamp or stamp_fields(m['time_s']))
+        for topic, fields in messages:
             self._write(topic.name, fields, m['time_s'])
 
     def setpoint(self, name: str, value: float):

@@ -211,9 +211,10 @@ class TwinNode(Node):
 
     def _publish(self, m):
         stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
+        messages = T.measurement_messages(m, stamp)
         if self.recorder is not None:  # first: whatever a subscriber got is in the file
-            self.recorder.measurements(m, stamp)
-        for topic, fields in T.measurement_messages(m, stamp):
+            self.recorder.measurements(m, messages=messages)
+        for topic, fields in messages:
             cls, pub = self.pub[topic.name]
             pub.publish(to_message(cls, fields))
         if self.fast:
