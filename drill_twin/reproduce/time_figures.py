@@ -7,6 +7,8 @@ Time is in units of t* and velocities dimensionless, as in the thesis plots.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..physics.scenario import load_scenario
@@ -48,7 +50,8 @@ def _velocity_axes(ax, tr, title):
     return ax2
 
 
-def _benchmark(overrides, quick):
+@functools.lru_cache(maxsize=4)  # Fig. 3.3.4 reuses the runs of 3.3.2 and 3.3.3
+def _benchmark(overrides: tuple, quick):
     sc, sim, tr = _run('benchmark_fem', overrides, duration=(150.0 if quick else 1500.0),
                        interval=0.05)
     stick = tr.angular_stick > 0.5
@@ -90,7 +93,8 @@ def _onset_sensitivity(drive_overrides, quick):
 
 
 def fig_3_3_2(quick):
-    sc, tr, out = _benchmark([], quick)
+    sc, tr, out = _benchmark((), quick)
+    out = dict(out)  # the cached run's numbers stay as they are
     fig, ax = plt.subplots(figsize=(9, 4))
     _velocity_axes(ax, tr, 'Benchmark (FEM 58 elements, speed drive): bit velocities')
     out.update(_onset_sensitivity([], quick))
@@ -99,7 +103,8 @@ def fig_3_3_2(quick):
 
 def fig_3_3_3(quick):
     drive = ['model.top_drive=soft_torque']
-    sc, tr, out = _benchmark(drive, quick)
+    sc, tr, out = _benchmark(tuple(drive), quick)
+    out = dict(out)
     fig, ax = plt.subplots(figsize=(9, 4))
     _velocity_axes(ax, tr, 'Benchmark with the Soft-Torque drive: bit velocities')
     out.update(_onset_sensitivity(drive, quick))
@@ -109,7 +114,7 @@ def fig_3_3_3(quick):
 def fig_3_3_4(quick):
     fig, ax = plt.subplots(figsize=(9, 4))
     out = {}
-    for label, ov in (('w/o ST', []), ('w/ ST', ['model.top_drive=soft_torque'])):
+    for label, ov in (('w/o ST', ()), ('w/ ST', ('model.top_drive=soft_torque',))):
         _, tr, _ = _benchmark(ov, quick)
         ax.plot(tr.tau, tr.delay_residual, lw=0.6, label=label)
         out[f'max_abs_residual_rad {label}'] = float(np.abs(tr.delay_residual).max())
@@ -211,6 +216,7 @@ def fig_4_4_1(quick):
     return _chain_figure(10, [(6.9, 2.96), (3.45, 2.96)], quick)
 
 
+@functools.lru_cache(maxsize=4)  # Fig. 5.1.6 reuses the run of 5.1.3
 def _rgd2(beta, quick):
     return _run('rgd2_stick_slip', [f'groups.beta={beta}'],
                 duration=(40.0 if quick else 150.0), record_state=True)
