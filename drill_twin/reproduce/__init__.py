@@ -53,7 +53,7 @@ def reproduce(out_dir, figures=None, quick: bool = False, workers=None, progress
             t0 = time.perf_counter()
             if fig_id in gallery.FIGURES:
                 numbers = {}
-                gallery._figure(out, fig_id, n_chart, pool, numbers, plt)
+                gallery.draw_figure(out, fig_id, n_chart, pool, numbers, plt)
             else:
                 if fig_id in root_paths.FIGURES:
                     fig, numbers = root_paths.FIGURES[fig_id](quick, pool)

@@ -13,6 +13,7 @@ import time
 
 import yaml
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 
 from ..io.mcap_reader import Recording
 from ..topics import QoS
@@ -61,14 +62,12 @@ class Player(Node):
                                               qos_profile(qos[t])) for t in self.topics}
         self.clock_pub = None
         if self.fast:
-            from rosgraph_msgs.msg import Clock
             self.clock_pub = self.create_publisher(Clock, '/clock', 10)
             self.pubs.pop('/clock', None)  # the player's /clock replaces a recorded one
         self.published = 0
 
     def play(self, stop=None) -> int:
         """Publish every selected message; ``stop()`` -> True ends early.  Returns the count."""
-        from rosgraph_msgs.msg import Clock
         start = time.monotonic()
         t0 = None
         for topic, t_ns, data in self.recording.messages(self.topics):

@@ -15,7 +15,7 @@ import numpy as np
 from ..physics.scenario import load_scenario
 from .charts import chart_pool, plot_chart, stability_chart
 
-__all__ = ['FIGURES', 'make_gallery']
+__all__ = ['FIGURES', 'make_gallery', 'draw_figure']
 
 _AB = (('groups.a', 0.3, 40.0), ('groups.b', 0.2, 12.0))
 _VW = (('groups.omega_o', 1.0, 40.0), ('upsilon_o', 0.05, 4.0))
@@ -63,14 +63,14 @@ def make_gallery(out_dir, figures=None, quick: bool = False, workers=None, progr
     wanted = figures or list(FIGURES)
     with chart_pool(workers) as pool:
         for k, fig_id in enumerate(wanted):
-            _figure(out, fig_id, n, pool, summary, plt)
+            draw_figure(out, fig_id, n, pool, summary, plt)
             if progress:
                 progress((k + 1) / len(wanted))
     (out / 'stability_gallery.json').write_text(json.dumps(summary, indent=1))
     return summary
 
 
-def _figure(out, fig_id, n, pool, summary, plt):
+def draw_figure(out, fig_id, n, pool, summary, plt):
     """Compute and draw the panels of one thesis figure into ``out``."""
     panels = FIGURES[fig_id]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 4.0),
