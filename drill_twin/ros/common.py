@@ -28,6 +28,11 @@ def run_node(node_class, label, args=None) -> int:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass
+    except Exception:  # noqa: BLE001
+        # SIGINT/SIGTERM shut the context down from the signal handler; a callback that
+        # was running at that moment fails to publish. That is the shutdown, not an error.
+        if rclpy.ok():
+            raise
     finally:
         node.destroy_node()
         if rclpy.ok():
