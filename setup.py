@@ -37,9 +37,9 @@ setup(
     entry_points={
         'console_scripts': [
             'drill-twin = drill_twin.cli:main',
-            'twin_node = drill_twin.ros.twin_node:main',
-            'soft_torque_node = drill_twin.ros.soft_torque_node:main',
-            'mcap_recorder = drill_twin.ros.recorder_node:main',
+            'twin_node = drill_twin.ros.entry:twin_node',
+            'soft_torque_node = drill_twin.ros.entry:soft_torque_node',
+            'mcap_recorder = drill_twin.ros.entry:mcap_recorder',
         ],
     },
 )

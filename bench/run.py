@@ -346,6 +346,179 @@ def bench_nodes(smoke):
             '< 3 s' if label == 'warm' else '', (t < 3.0) if label == 'warm' else None)
 
 
+def _bench_domain():
+    """A ROS domain for the bench's processes (reserved through domain_coordinator)."""
+    import contextlib
+    try:
+        from domain_coordinator import domain_id
+    except ImportError:
+        return contextlib.nullcontext(int(np.random.randint(1, 101)))
+    start = int(np.random.randint(100))
+    counter = iter(range(start, start + 1000))
+    return domain_id(selector=lambda: next(counter) % 100 + 1)
+
+
+def _node_process(executable, env, *params):
+    args = [str(Path(sys.executable).parent / executable), '--ros-args']
+    for prm in params:
+        args += ['-p', prm]
+    return subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+
+
+def _rss_mb(pid):
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) / 1024.0
+    return float('nan')
+
+
+def bench_realtime_under_load(smoke):
+    """Issue 12: twin_node and soft_torque_node as processes at their defaults (100 Hz,
+    advisory every 30 s, in its worker process) for >= 3 advisory periods while a CPU-bound
+    process competes; gaps and jitter of /bit/velocity header stamps, fallbacks of both
+    nodes, overruns."""
+    try:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from geometry_msgs.msg import TwistStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import qos_profile_sensor_data
+        from std_msgs.msg import Float64
+
+        from drill_twin.ros.twin_node import SETPOINT_QOS
+    except ImportError as exc:
+        row('realtime', 'twin under load', 'skipped', '', '', None, f'no rclpy: {exc}')
+        return
+    seconds = 8.0 if smoke else 100.0
+    with _bench_domain() as domain:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
+                   ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+        hog = subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+        twin = _node_process('twin_node', env)
+        ctrl = _node_process('soft_torque_node', env)
+        saved = {k: os.environ.get(k) for k in env if k.startswith('ROS_')}
+        os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+        ctx = rclpy.Context()
+        rclpy.init(context=ctx)
+        probe = rclpy.create_node('bench_probe', context=ctx)
+        stamps, latency, diag = [], [], {}
+
+        def on_bit(m):
+            stamp = m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+            stamps.append(stamp)
+            latency.append(probe.get_clock().now().nanoseconds * 1e-9 - stamp)
+        probe.create_subscription(TwistStamped, 'bit/velocity', on_bit,
+                                  qos_profile_sensor_data)
+        probe.create_subscription(DiagnosticArray, '/diagnostics', lambda m: diag.update(
+            {st.name: {kv.key: kv.value for kv in st.values} for st in m.status}), 100)
+        probe.create_publisher(Float64, 'surface_speed_setpoint', SETPOINT_QOS).publish(
+            Float64(data=12.57))
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        deadline = time.monotonic() + 60
+        while not stamps and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        start = time.monotonic()
+        while time.monotonic() - start < seconds:
+            ex.spin_once(timeout_sec=0.05)
+        end_diag = time.monotonic() + 3   # the 1 Hz diagnostics after the window
+        while time.monotonic() < end_diag:
+            ex.spin_once(timeout_sec=0.05)
+        for proc in (twin, ctrl):
+            proc.send_signal(2)
+        for proc in (twin, ctrl):
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        hog.kill()
+        ex.shutdown()
+        probe.destroy_node()
+        rclpy.shutdown(context=ctx)
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    gaps = np.diff(np.sort(stamps)) * 1e3
+    twin_diag = diag.get('drill_twin: model', {})
+    ctrl_diag = diag.get('drill_twin: soft_torque', {})
+    fallbacks = int(ctrl_diag.get('fallbacks', -1)) + int(twin_diag.get('controller_timeouts',
+                                                                        -1))
+    note = (f'{seconds:.0f} s, {len(stamps)} messages, CPU hog on the other core; advisories '
+            f'every 30 s (worker process)')
+    ok = gaps.size and gaps.max() < 30.0
+    row('realtime', 'max gap between /bit/velocity stamps (100 Hz)', f'{gaps.max():.1f}', 'ms',
+        '< 30 ms', None if smoke else bool(ok), note)
+    jitter = np.percentile(np.abs(gaps - 10.0), 99)
+    row('realtime', 'p99 period jitter of /bit/velocity stamps', f'{jitter:.2f}', 'ms', '< 2 ms',
+        None if smoke else bool(jitter < 2.0))
+    lat = np.array(latency) * 1e3
+    row('realtime', 'latency stamp -> probe delivery (p50/p99/max)',
+        f'{np.percentile(lat, 50):.2f}/{np.percentile(lat, 99):.2f}/{lat.max():.1f}', 'ms', '',
+        None, 'stamps are the acquisition time of the simulated sample (runtime/pacing.py)')
+    row('realtime', 'fallbacks: controller (no torque) + twin (no commands)',
+        f"{ctrl_diag.get('fallbacks', '?')} + {twin_diag.get('controller_timeouts', '?')}", '',
+        '0', None if smoke else fallbacks == 0)
+    row('realtime', 'overruns / real-time slips of the twin',
+        f"{twin_diag.get('overruns', '?')} / {twin_diag.get('real_time_slips', '?')}", '',
+        'reported', None)
+
+
+def bench_recording_soak(smoke):
+    """Issue 12: the twin node records for one simulated hour (as fast as possible, 20 Hz
+    ticks, chunks of 0.25 s): resident memory of its process from 10 minutes to the end."""
+    try:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rosgraph_msgs.msg import Clock
+    except ImportError as exc:
+        row('memory', 'recording soak', 'skipped', '', '', None, f'no rclpy: {exc}')
+        return
+    hours = 0.02 if smoke else 1.0
+    with tempfile.TemporaryDirectory() as tmp, _bench_domain() as domain:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
+                   ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+        path = Path(tmp) / 'soak.mcap'
+        twin = _node_process('twin_node', env, 'as_fast_as_possible:=true',
+                             'publish_rate_hz:=20.0', 'stability_period_s:=0.0',
+                             f'record_path:={path}')
+        saved = {k: os.environ.get(k) for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')}
+        os.environ.update({k: env[k] for k in saved})
+        ctx = rclpy.Context()
+        rclpy.init(context=ctx)
+        probe = rclpy.create_node('bench_probe', context=ctx)
+        sim = [0.0]
+        probe.create_subscription(Clock, '/clock', lambda m: sim.__setitem__(
+            0, m.clock.sec + 1e-9 * m.clock.nanosec), 10)
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        first = None
+        t0 = time.monotonic()
+        while sim[0] < hours * 3600 and time.monotonic() - t0 < 3600:
+            ex.spin_once(timeout_sec=0.1)
+            if first is None and sim[0] >= hours * 600:
+                first = _rss_mb(twin.pid)
+        last = _rss_mb(twin.pid)
+        wall = time.monotonic() - t0
+        twin.send_signal(2)
+        twin.wait(timeout=30)
+        ex.shutdown()
+        probe.destroy_node()
+        rclpy.shutdown(context=ctx)
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+        size = path.stat().st_size / 1e6
+    row('memory', f'twin_node recording {hours * 60:.0f} simulated min: RSS at 1/6 -> end',
+        f'{first:.1f} -> {last:.1f}', 'MB', '< +5 MB', None if smoke else last - first < 5.0,
+        f'{size:.0f} MB file, {wall:.0f} s wall (as fast as possible, 20 Hz ticks)')
+
+
 # --- 6: memory -------------------------------------------------------------------------
 
 def rss_mb():
@@ -420,14 +593,18 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument('--smoke', action='store_true', help='tiny sizes (test suite)')
     ap.add_argument('--out', default=str(ROOT / 'docs' / 'benchmarks.md'))
+    ap.add_argument('--only', nargs='+', help='run only these parts (function names without '
+                    'bench_), e.g. realtime_under_load; the markdown is not written')
     args = ap.parse_args()
     print(f'{"section":<10} {"item":<46} {"value":>12} {"unit":<12} {"target":<14} '
           f'{"status":<8} note')
-    for part in (bench_rtf, bench_scaling, bench_numpy_peer, bench_physical_limit,
-                 bench_stability, bench_nodes, bench_memory, bench_recording):
-        part(args.smoke)
-    bench_jitcdde(args.smoke)
-    if not args.smoke:
+    parts = (bench_rtf, bench_scaling, bench_numpy_peer, bench_physical_limit,
+             bench_stability, bench_nodes, bench_realtime_under_load, bench_memory,
+             bench_recording_soak, bench_recording, bench_jitcdde)
+    for part in parts:
+        if not args.only or part.__name__[len('bench_'):] in args.only:
+            part(args.smoke)
+    if not args.smoke and not args.only:
         write_markdown(args.out)
         print(f'\nwritten {args.out}')
     return 0

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 __all__ = ['QoS', 'Topic', 'TOPICS', 'BY_NAME', 'SENSOR', 'SETPOINT', 'COMMAND', 'EVENTS',
            'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
-           'FLOAT64', 'MEASUREMENTS']
+           'FLOAT64', 'MEASUREMENTS', 'PARAMETER_EVENTS', 'parameter_event_fields',
+           'parameter_value_fields', 'parameter_value']
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,8 @@ SETPOINT = QoS('reliable', 'transient_local', 1)
 COMMAND = QoS('reliable', 'volatile', 1)
 #: /diagnostics and /clock (rclpy's default profile)
 EVENTS = QoS('reliable', 'volatile', 10)
+#: /parameter_events (rclpy's ``qos_profile_parameter_events``)
+PARAMETER_EVENTS = QoS('reliable', 'volatile', 1000)
 
 FLOAT64 = 'std_msgs/msg/Float64'
 
@@ -47,7 +50,8 @@ class Topic:
     """One topic of the twin's interface.
 
     ``role``: ``setpoint`` (into the twin), ``measurement`` (out, every tick),
-    ``advisory`` (stability, low rate), ``diagnostics``, ``clock``.
+    ``advisory`` (stability, low rate), ``diagnostics``, ``clock``, ``parameters``
+    (run-time parameter changes, published by rclpy and recorded by the twin).
     ``fields(m, stamp)`` maps a measurement dict to message fields (measurements only).
     """
 
@@ -101,6 +105,8 @@ TOPICS = (
     Topic('stability/critical_surface_speed', FLOAT64, SETPOINT, 'advisory'),
     Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', EVENTS, 'diagnostics'),
     Topic('/clock', 'rosgraph_msgs/msg/Clock', EVENTS, 'clock'),
+    Topic('/parameter_events', 'rcl_interfaces/msg/ParameterEvent', PARAMETER_EVENTS,
+          'parameters'),
 )
 BY_NAME = {t.name: t for t in TOPICS}
 MEASUREMENTS = tuple(t for t in TOPICS if t.role == 'measurement')
@@ -124,3 +130,33 @@ def diagnostics_fields(stamp: dict, level: int, message: str, values: dict,
 def clock_fields(time_s: float) -> dict:
     """``rosgraph_msgs/Clock`` fields."""
     return {'clock': stamp_fields(time_s)}
+
+
+#: ``rcl_interfaces/msg/ParameterType`` code of a Python value (scalars and string lists)
+_PARAMETER_TYPES = ((bool, 1, 'bool_value'), (int, 2, 'integer_value'),
+                    (float, 3, 'double_value'), (str, 4, 'string_value'))
+
+
+def parameter_value_fields(value) -> dict:
+    """``rcl_interfaces/ParameterValue`` fields of a bool, int, float, str or list of str."""
+    if isinstance(value, (list, tuple)):
+        return {'type': 9, 'string_array_value': [str(v) for v in value]}
+    for kind, code, key in _PARAMETER_TYPES:
+        if isinstance(value, kind):
+            return {'type': code, key: value}
+    raise ValueError(f'unsupported parameter value {value!r}')
+
+
+def parameter_value(fields) -> object:
+    """The Python value of decoded ``ParameterValue`` fields (None if not set)."""
+    code = fields.type
+    keys = {1: 'bool_value', 2: 'integer_value', 3: 'double_value', 4: 'string_value',
+            9: 'string_array_value'}
+    return getattr(fields, keys[code]) if code in keys else None
+
+
+def parameter_event_fields(stamp: dict, node: str, changed: dict) -> dict:
+    """``rcl_interfaces/ParameterEvent`` fields: ``changed`` maps names to new values."""
+    return {'stamp': stamp, 'node': node,
+            'changed_parameters': [{'name': k, 'value': parameter_value_fields(v)}
+                                   for k, v in changed.items()]}

@@ -1,7 +1,6 @@
 """The README's ROS section, run as written: the two node commands of its bash block and
-its Python operator snippet, in separate processes over DDS (random domain)."""
+its Python operator snippet, in separate processes over DDS (the session's domain)."""
 import os
-import random
 import re
 import select
 import shlex
@@ -30,7 +29,7 @@ def test_readme_nodes_and_operator_snippet(tmp_path):
     nodes, snippet = _ros_section()
     assert [n.split()[2] for n in nodes] == ['drill_twin.ros.twin_node',
                                              'drill_twin.ros.soft_torque_node']
-    env = dict(os.environ, ROS_DOMAIN_ID=str(random.randint(20, 200)), PYTHONUNBUFFERED='1')
+    env = dict(os.environ, PYTHONUNBUFFERED='1')  # the session's domain (conftest.py)
     procs = [subprocess.Popen([sys.executable, *shlex.split(n)[1:]], env=env,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
              for n in nodes]

@@ -1,10 +1,12 @@
-"""Twin and Soft-Torque controller as two separate processes talking over DDS (loopback)."""
+"""The nodes as separate processes over DDS (loopback, the session's ROS domain): the closed
+loop of twin and controller, and the process life cycle (signals at any time, fast clean
+shutdown with the stability advisor on, bad parameters)."""
 import os
-import random
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -17,31 +19,79 @@ from std_msgs.msg import Float64  # noqa: E402
 from drill_twin.io.mcap_reader import open_recording  # noqa: E402
 from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS  # noqa: E402
 
+BIN = Path(sys.executable).parent
 
-def _start(module, domain, *params):
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), PYTHONUNBUFFERED='1')
-    args = [sys.executable, '-m', module, '--ros-args']
+
+def _start(executable, *params, env=None, **kw):
+    """A node by its console script (what ``ros2 run`` starts), with ``-p`` parameters."""
+    env = dict(os.environ, PYTHONUNBUFFERED='1', **(env or {}))
+    args = [str(BIN / executable), '--ros-args']
     for p in params:
         args += ['-p', p]
     return subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+                            text=True, **kw)
+
+
+class Probe:
+    """A node in the test process (session domain) with one executor."""
+
+    def __init__(self):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node('probe', context=self.ctx)
+        self.ex = SingleThreadedExecutor(context=self.ctx)
+        self.ex.add_node(self.node)
+
+    def spin_until(self, condition, timeout, each=None):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if each is not None:
+                each()
+            self.ex.spin_once(timeout_sec=0.05)
+            if condition():
+                return True
+        return False
+
+    def close(self):
+        self.ex.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+
+def _finish(proc, timeout=20):
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, _ = proc.communicate()
+    return out
+
+
+def _advisor_workers(parent_pid):
+    """Advisory worker processes started by ``parent_pid`` (their command line names it)."""
+    found = []
+    for entry in Path('/proc').iterdir():
+        if entry.name.isdigit():
+            try:
+                cmd = (entry / 'cmdline').read_bytes().split(b'\0')
+            except OSError:
+                continue
+            if b'drill_twin.runtime.advisor' in cmd and str(parent_pid).encode() in cmd:
+                found.append(int(entry.name))
+    return found
 
 
 @pytest.mark.slow
 def test_twin_and_controller_in_two_processes(tmp_path):
     """Also: the twin records itself and SIGTERM (what launch and systemd send) closes the
     file properly."""
-    domain = random.randint(20, 200)
-    saved = os.environ.get('ROS_DOMAIN_ID')
-    os.environ['ROS_DOMAIN_ID'] = str(domain)
     record = tmp_path / 'run.mcap'
-    procs = [_start('drill_twin.ros.twin_node', domain, 'real_time_factor:=2.0',
-                    'stability_period_s:=0.0', f'record_path:={record}'),
-             _start('drill_twin.ros.soft_torque_node', domain, 'control_rate_hz:=100.0')]
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    node = rclpy.create_node('probe', context=ctx)
+    procs = [_start('twin_node', 'real_time_factor:=2.0', 'stability_period_s:=0.0',
+                    f'record_path:={record}'),
+             _start('soft_torque_node', 'control_rate_hz:=100.0')]
+    probe = Probe()
     got = {'cmd': [], 'bit': [], 'top': []}
+    node = probe.node
     node.create_subscription(Float64, 'surface_speed_command',
                              lambda m: got['cmd'].append(m.data), COMMAND_QOS)
     node.create_subscription(TwistStamped, 'bit/velocity',
@@ -50,14 +100,9 @@ def test_twin_and_controller_in_two_processes(tmp_path):
     node.create_subscription(Float64, 'surface/top_drive_speed',
                              lambda m: got['top'].append(m.data), qos_profile_sensor_data)
     pub = node.create_publisher(Float64, 'surface_speed_setpoint', SETPOINT_QOS)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not (len(got['cmd']) > 200 and
-                                                   len(got['bit']) > 200):
-            pub.publish(Float64(data=12.57))  # transient-local: late joiners get it too
-            ex.spin_once(timeout_sec=0.05)
+        pub.publish(Float64(data=12.57))  # transient-local: late joiners get it too
+        probe.spin_until(lambda: len(got['cmd']) > 200 and len(got['bit']) > 200, 60)
         assert len(got['cmd']) > 200, 'no commands from the controller process'
         assert len(got['bit']) > 200, 'no measurements from the twin process'
         # the twin's top drive follows the controller's command (stiff speed drive)
@@ -65,22 +110,103 @@ def test_twin_and_controller_in_two_processes(tmp_path):
         assert min(recent_cmd) - 0.5 < got['top'][-1] < max(recent_cmd) + 0.5
         assert all(0.0 <= w < 60.0 for w in got['bit'])
     finally:
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=ctx)
-        if saved is None:
-            os.environ.pop('ROS_DOMAIN_ID', None)
-        else:
-            os.environ['ROS_DOMAIN_ID'] = saved
+        probe.close()
         procs[0].send_signal(signal.SIGTERM)
         procs[1].send_signal(signal.SIGINT)
-        for p in procs:
-            try:
-                out, _ = p.communicate(timeout=20)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                out, _ = p.communicate()
-            assert p.returncode == 0, out[-2000:]
+        outs = [_finish(p) for p in procs]
+    for p, out in zip(procs, outs):
+        assert p.returncode == 0, out[-2000:]
+        assert 'Traceback' not in out, out[-2000:]
     rec = open_recording(record)  # complete (summary + footer), no recovery needed
     assert rec.message_counts['/surface_speed_command'] > 100
     assert rec.message_counts['/bit/velocity'] > 200
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_ends_both_nodes_fast_with_the_advisor_on(tmp_path, sig):
+    """Default parameters (advisor every 30 s, its worker busy at the moment of the signal):
+    exit code 0 in under 1 s, no traceback, a complete recording, no worker left."""
+    record = tmp_path / 'run.mcap'
+    twin = _start('twin_node', f'record_path:={record}')
+    ctrl = _start('soft_torque_node')
+    probe = Probe()
+    advisories = []
+    probe.node.create_subscription(Float64, 'stability/spectral_abscissa',
+                                   lambda m: advisories.append(m.data), SETPOINT_QOS)
+    commands = []
+    probe.node.create_subscription(Float64, 'surface_speed_command',
+                                   lambda m: commands.append(m.data), COMMAND_QOS)
+    pub = probe.node.create_publisher(Float64, 'surface_speed_setpoint', SETPOINT_QOS)
+    pub.publish(Float64(data=12.57))  # the controller commands once it has a set-point
+    try:
+        assert probe.spin_until(lambda: advisories and len(commands) > 20, 60)
+        workers = _advisor_workers(twin.pid)
+        assert len(workers) == 1
+        pub.publish(Float64(data=13.0))  # a new set-point: the worker computes again now
+        probe.spin_until(lambda: False, 0.2)
+        elapsed = {}
+        for proc in (twin, ctrl):
+            t0 = time.monotonic()
+            proc.send_signal(sig)
+            out = _finish(proc)
+            elapsed[proc] = (time.monotonic() - t0, out)
+    finally:
+        probe.close()
+        for proc in (twin, ctrl):
+            if proc.poll() is None:
+                proc.kill()
+    for proc, (seconds, out) in elapsed.items():
+        assert proc.returncode == 0 and 'Traceback' not in out, out[-2000:]
+        assert seconds < 1.0, (seconds, out[-500:])
+    assert not [pid for pid in workers if Path(f'/proc/{pid}').exists()]
+    rec = open_recording(record)
+    assert rec.message_counts['/bit/velocity'] > 100
+    assert rec.message_counts['/stability/spectral_abscissa'] >= 1
+    last = {}
+    for topic, t, _ in rec.messages():  # log times never go back within a channel
+        assert t >= last.get(topic, 0), topic
+        last[topic] = t
+
+
+@pytest.mark.slow
+def test_a_signal_during_construction_exits_cleanly(tmp_path):
+    """SIGTERM while the twin compiles its kernels (a cold numba cache) and while its modules
+    are still being imported: exit code 0, no traceback."""
+    cold = _start('twin_node', env={'NUMBA_CACHE_DIR': str(tmp_path / 'cold')})
+    lines = []
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        line = cold.stdout.readline()
+        lines.append(line)
+        if not line or 'compiling the kernels' in line:
+            break
+    cold.send_signal(signal.SIGTERM)
+    out = ''.join(lines) + _finish(cold, 60)
+    assert cold.returncode == 0 and 'Traceback' not in out, out[-3000:]
+    assert 'twin of' not in out  # it never got to run
+    early = _start('twin_node')
+    time.sleep(0.3)  # inside the imports (the point is the moment, not synchronisation)
+    early.send_signal(signal.SIGTERM)
+    out = _finish(early)
+    assert early.returncode == 0 and 'Traceback' not in out, out[-3000:]
+
+
+@pytest.mark.parametrize('executable, param, message', [
+    ('twin_node', 'publish_rate_hz:=0.0', 'publish_rate_hz'),
+    ('twin_node', 'real_time_factor:=abc', 'real_time_factor'),
+    ('twin_node', 'real_time_factor:=.nan', 'real_time_factor'),
+    ('twin_node', 'max_surface_speed_rad_s:=.nan', 'max_surface_speed_rad_s'),
+    ('twin_node', 'record_chunk_period_s:=0.0', 'record_chunk_period_s'),
+    ('twin_node', 'overrides:=5', 'overrides'),
+    ('twin_node', 'config:=no_such_config', 'no_such_config'),
+    ('soft_torque_node', 'control_rate_hz:=-1.0', 'control_rate_hz'),
+    ('soft_torque_node', 'config:=rgd_stick_slip', 'SI'),
+])
+def test_bad_start_parameters_give_one_line_and_exit_2(executable, param, message):
+    proc = _start(executable, param, 'stability_period_s:=0.0'
+                  if executable == 'twin_node' else 'enabled:=true')
+    out = _finish(proc, 60)
+    errors = [line for line in out.splitlines() if 'error' in line.lower()]
+    assert proc.returncode == 2, out
+    assert 'Traceback' not in out and len(errors) == 1 and message in errors[0], out

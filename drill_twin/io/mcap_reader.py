@@ -1,27 +1,39 @@
 """Read drill_twin (rosbag2-profile) MCAP recordings, and recover killed ones.
 
+Opening a recording validates it whole: header profile, summary, every channel a
+ROS 2 CDR channel with a ``ros2msg`` schema, and every chunk against its indexes
+(:func:`check_indexes`: the chunk's CRC, and the message indexes list exactly the
+messages the chunk holds, at the log times and offsets they have), so that what
+``info`` and ``export`` report is what an indexed reader (Foxglove, rosbag2)
+sees.
+
 Every failure of a corrupt, truncated or foreign file is raised as
 :class:`RecordingError` with a sentence that says what is wrong and what to
 do (e.g. "run ``drill-twin mcap recover``"), never a library traceback.
 """
 from __future__ import annotations
 
+import io
 import json
 import struct
 import zlib
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
+from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
-from mcap.records import Channel, Header, Message, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.records import Channel, Chunk, Header, Message, MessageIndex, Metadata, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader, get_chunk_data_stream
 from mcap.writer import CompressionType, Writer
-from mcap_ros2._dynamic import generate_dynamic
 
+from .cdr import decoder_for
 from .mcap_writer import PROFILE
 
-__all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'RUN_METADATA']
+__all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
+           'RUN_METADATA']
 
 _MAGIC = b'\x89MCAP'
 #: name of the MCAP metadata record with the run description
@@ -89,7 +101,7 @@ class Recording:
                 raise RecordingError(f'{self.path}: no topic {topic!r} (has: '
                                      f'{", ".join(sorted(self.topics))})')
             try:
-                self._decoders[topic] = generate_dynamic(info.type, info.schema_text)[info.type]
+                self._decoders[topic] = decoder_for(info.type, info.schema_text)
             except Exception as exc:  # noqa: BLE001 - a broken schema in a foreign file
                 raise RecordingError(f'{self.path}: cannot parse the schema of {topic} '
                                      f'({info.type}): {_why(exc)}') from None
@@ -109,6 +121,83 @@ class Recording:
 
 def _why(exc) -> str:
     return f'{type(exc).__name__}: {exc}' if str(exc) else type(exc).__name__
+
+
+def _record_at(f, offset: int, opcode: int, what: str) -> bytes:
+    """The body of the record of type ``opcode`` that starts at ``offset``."""
+    f.seek(offset)
+    head = f.read(9)
+    if len(head) < 9:
+        raise RecordingError(f'{what} at byte {offset} is past the end of the file')
+    op, length = struct.unpack('<BQ', head)
+    if op != opcode:
+        raise RecordingError(f'{what} at byte {offset} is not there (opcode {op:#x})')
+    body = f.read(length)
+    if len(body) != length:
+        raise RecordingError(f'{what} at byte {offset} is truncated')
+    return body
+
+
+def _chunk_messages(data: bytes) -> dict:
+    """``{channel: [(log_time, offset), ...]}`` of the Message records in chunk data."""
+    found: dict[int, list] = {}
+    pos = 0
+    while pos < len(data):
+        op, length = struct.unpack_from('<BQ', data, pos)
+        if op == Opcode.MESSAGE:
+            cid, _, log_time = struct.unpack_from('<HIQ', data, pos + 9)
+            found.setdefault(cid, []).append((log_time, pos))
+        pos += 9 + length
+    if pos != len(data):
+        raise RecordingError('a chunk\'s records overrun its data')
+    return found
+
+
+def check_indexes(path, summary) -> Counter:
+    """Check every chunk against the summary's chunk index and its message indexes.
+
+    Raises :class:`RecordingError` at the first disagreement (what an indexed reader
+    such as Foxglove's refuses); returns the message count per channel id found in
+    the chunks, which must equal the statistics.
+    """
+    counts: Counter = Counter()
+    with open(path, 'rb') as f:
+        for n, ci in enumerate(summary.chunk_indexes):
+            where = f'chunk {n} (byte {ci.chunk_start_offset})'
+            body = _record_at(f, ci.chunk_start_offset, Opcode.CHUNK, where)
+            if 9 + len(body) != ci.chunk_length:
+                raise RecordingError(f'{where}: length disagrees with its chunk index')
+            chunk = Chunk.read(ReadDataStream(io.BytesIO(body)))
+            stream, size = get_chunk_data_stream(chunk, validate_crc=True)
+            messages = _chunk_messages(stream.read(size))
+            times = [t for entries in messages.values() for t, _ in entries]
+            if times and (min(times) != ci.message_start_time or
+                          max(times) != ci.message_end_time):
+                raise RecordingError(f'{where}: message times disagree with its chunk index')
+            if set(ci.message_index_offsets) != set(messages):
+                raise RecordingError(f'{where}: its message indexes name channels '
+                                     f'{sorted(ci.message_index_offsets)}, it holds '
+                                     f'{sorted(messages)}')
+            for cid, offset in ci.message_index_offsets.items():
+                index = MessageIndex.read(ReadDataStream(io.BytesIO(
+                    _record_at(f, offset, Opcode.MESSAGE_INDEX, f'{where} message index'))))
+                if index.channel_id != cid or sorted(index.records) != sorted(messages[cid]):
+                    raise RecordingError(f'{where}: the message index of channel {cid} '
+                                         'disagrees with the messages in the chunk')
+                counts[cid] += len(messages[cid])
+    stats = summary.statistics
+    if stats is not None and dict(counts) != {k: v for k, v in
+                                              stats.channel_message_counts.items() if v}:
+        raise RecordingError('the message counts of the statistics disagree with the chunks')
+    return counts
+
+
+def _check_channel(path, channel, schema):
+    if channel.message_encoding != 'cdr' or schema is None or schema.encoding != 'ros2msg':
+        raise RecordingError(
+            f'{path}: channel {channel.topic} is not a ROS 2 CDR channel (message encoding '
+            f'{channel.message_encoding!r}, schema encoding '
+            f'{getattr(schema, "encoding", None)!r})')
 
 
 def open_recording(path) -> Recording:
@@ -133,6 +222,11 @@ def open_recording(path) -> Recording:
             summary = reader.get_summary()
             metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()} \
                 if summary is not None else {}
+        if summary is not None:
+            check_indexes(path, summary)
+    except RecordingError as exc:
+        raise RecordingError(f'{path}: corrupt MCAP index ({exc}); run `drill-twin mcap '
+                             f'recover {path} FIXED.mcap` to rebuild the indexes') from None
     except _READ_ERRORS as exc:
         raise RecordingError(f'{path}: unreadable MCAP ({_why(exc)}); if it was being written '
                              f'when its recorder died, run `drill-twin mcap recover {path} '
@@ -147,11 +241,7 @@ def open_recording(path) -> Recording:
     channels = {}
     for cid, ch in summary.channels.items():
         schema = summary.schemas.get(ch.schema_id)
-        if ch.message_encoding != 'cdr' or schema is None or schema.encoding != 'ros2msg':
-            raise RecordingError(
-                f'{path}: channel {ch.topic} is not a ROS 2 CDR channel (message encoding '
-                f'{ch.message_encoding!r}, schema encoding '
-                f'{getattr(schema, "encoding", None)!r})')
+        _check_channel(path, ch, schema)
         channels[cid] = ChannelInfo(ch.topic, schema.name, schema.data.decode(),
                                     ch.metadata.get('offered_qos_profiles', ''))
     counts = {}
@@ -206,6 +296,20 @@ def recover(broken, fixed) -> dict:
         raise RecordingError(f'{broken}: no readable MCAP header')
     if header.profile != PROFILE:
         raise RecordingError(f'{broken}: not a ROS 2 recording (profile {header.profile!r})')
+    for channel in channels.values():
+        _check_channel(broken, channel, schemas.get(channel.schema_id))
+    if complete:  # every record read: is the summary there, and do the indexes agree?
+        try:
+            with open(broken, 'rb') as f:
+                summary = SeekingReader(f, validate_crcs=True).get_summary()
+            if summary is None:
+                complete, stopped = False, 'no summary'
+            else:
+                check_indexes(broken, summary)
+        except RecordingError as exc:
+            complete, stopped = False, f'indexes: {exc}'
+        except _READ_ERRORS as exc:
+            complete, stopped = False, f'summary: {_why(exc)}'
     counts = {'messages': 0, 'channels': len(channels), 'complete': complete,
               'stopped_at': stopped}
     with open(fixed, 'wb') as out:

@@ -5,7 +5,8 @@ applied them and one group of measurement messages per tick, all at exact
 simulated times (:mod:`drill_twin.io.run_recorder`).  Walking the file in
 write order, this module rebuilds the twin from the recorded configuration
 (metadata ``drill_twin``), applies each set-point (rejected ones are rejected
-again), and at each tick advances by the same number of steps and compares
+again) and each run-time change of ``max_surface_speed_rad_s`` (which decides
+what is rejected), and at each tick advances by the same number of steps and compares
 every numeric field of every measurement message with the fresh twin's.
 Same package version and configuration => every difference is exactly 0.
 """
@@ -13,7 +14,7 @@ from __future__ import annotations
 
 from ..physics.digital_twin import DigitalTwin, SetpointError
 from ..physics.scenario import scenario_from_dict
-from ..topics import MEASUREMENTS, TOPICS
+from ..topics import BY_NAME, MEASUREMENTS, TOPICS, parameter_value
 from .export import flatten
 from .mcap_reader import Recording, RecordingError
 from .run_recorder import qualified
@@ -66,6 +67,8 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
             from None
     ns = run.get('namespace', '/')
     spec = {qualified(t.name, ns): t for t in TOPICS if t.role in ('setpoint', 'measurement')}
+    spec['/parameter_events'] = BY_NAME['/parameter_events']
+    node = run.get('node', '/drill_twin')
     first = qualified(MEASUREMENTS[0].name, ns)
     report = {name: {'messages': 0, 'max_abs_difference': 0.0}
               for name in spec if spec[name].role == 'measurement'}
@@ -75,6 +78,12 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
     for topic, t_ns, data in recording.messages(spec):
         topic_spec = spec[topic]
         msg = recording.decoder(topic)(data)
+        if topic_spec.role == 'parameters':
+            if msg.node == node:
+                for prm in msg.changed_parameters:
+                    if prm.name == 'max_surface_speed_rad_s':
+                        twin.max_surface_speed = float(parameter_value(prm.value))
+            continue
         if topic_spec.role == 'setpoint':
             if not apply_setpoints:
                 continue

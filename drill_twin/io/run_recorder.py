@@ -10,7 +10,10 @@ Used by the twin node (parameter ``record_path``) and by ``drill-twin simulate
   resimulation); when the controller falls silent and the twin returns to
   the operator set-point, that return is recorded as the operator set-point;
 * every tick's measurement topics (one message each, ``bit/velocity`` first);
-* stability advisories, diagnostics and ``/clock`` when the twin publishes them.
+* stability advisories, diagnostics and ``/clock`` when the twin publishes them;
+* the twin's run-time parameter changes (``/parameter_events``, as rclpy publishes
+  them), at the simulated time they took effect: a change of
+  ``max_surface_speed_rad_s`` decides which later set-points are accepted.
 
 Because the order and the simulated times are exact, feeding the recorded
 set-points into a fresh twin reproduces the run
@@ -26,7 +29,13 @@ import subprocess
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 
-from ..topics import BY_NAME, clock_fields, measurement_messages, stamp_fields
+from ..topics import (
+    BY_NAME,
+    clock_fields,
+    measurement_messages,
+    parameter_event_fields,
+    stamp_fields,
+)
 from .mcap_reader import RUN_METADATA
 from .mcap_writer import McapRecorder
 
@@ -91,6 +100,8 @@ class TwinRecorder:
         Configuration overrides (for the record).
     namespace : str
         ROS namespace of the twin's topics.
+    node : str
+        Fully qualified name of the twin node (the ``node`` of its parameter events).
     settings : dict
         Extra run settings (publish rate, real-time factor, ...) stored verbatim.
     chunk_period_s : float
@@ -98,14 +109,16 @@ class TwinRecorder:
     """
 
     def __init__(self, path, twin, config: str = '', overrides=(), namespace: str = '/',
-                 settings: dict | None = None, chunk_period_s: float = 0.25):
+                 settings: dict | None = None, chunk_period_s: float = 0.25,
+                 node: str = '/drill_twin'):
         self.twin = twin
         self.namespace = namespace
+        self.node = node
         self.writer = McapRecorder(path, chunk_period_s=chunk_period_s,
                                    library=f'drill_twin {package_version()}')
         self.writer.add_metadata(RUN_METADATA, run_metadata(
             'simulated', namespace, config=str(config), overrides=json.dumps(list(overrides)),
-            model=twin.scenario.model.name, scenario=json.dumps(twin.scenario.raw),
+            node=node, model=twin.scenario.model.name, scenario=json.dumps(twin.scenario.raw),
             twin=json.dumps(twin.settings()), settings=json.dumps(settings or {})))
 
     @property
@@ -136,6 +149,13 @@ class TwinRecorder:
     def event(self, name: str, fields: dict, time_s: float | None = None):
         """An advisory or diagnostics message (fields as in :mod:`drill_twin.topics`)."""
         self._write(name, fields, self.twin.time_s if time_s is None else time_s)
+
+    def parameters(self, params):
+        """Run-time parameter changes (objects with ``name`` and ``value``, e.g. rclpy
+        ``Parameter``), as one ``/parameter_events`` message at the twin's current time."""
+        time_s = self.twin.time_s
+        self._write('/parameter_events', parameter_event_fields(
+            stamp_fields(time_s), self.node, {p.name: p.value for p in params}), time_s)
 
     def clock(self, time_s: float):
         self._write('/clock', clock_fields(time_s), time_s)

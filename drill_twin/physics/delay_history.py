@@ -34,7 +34,7 @@ def new_history(capacity: int):
     return np.zeros((5, int(capacity))), np.zeros(4, np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def push_sample(hist, meta, t, u, phi, du, dphi):
     """Append a bit sample (τ, U, Φ, U', Φ'); skipped when the bit did not move."""
     cap = hist.shape[1]
@@ -63,7 +63,7 @@ def push_sample(hist, meta, t, u, phi, du, dphi):
     hist[H_DPHI, idx] = dphi
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def _hermite(y0, y1, d0, d1, h, s):
     s2 = s * s
     s3 = s2 * s
@@ -71,7 +71,7 @@ def _hermite(y0, y1, d0, d1, h, s):
             + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * d1)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def _hermite_slope(y0, y1, d0, d1, h, s):
     """d/ds of the Hermite interpolant (s in [0, 1])."""
     s2 = s * s
@@ -79,7 +79,7 @@ def _hermite_slope(y0, y1, d0, d1, h, s):
             + (-6 * s2 + 6 * s) * y1 + (3 * s2 - 2 * s) * h * d1)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def _bracket(hist, row, start, count, value):
     """Ring positions (lo, hi) with hist[row, lo] < value <= hist[row, hi] (row sorted)."""
     cap = hist.shape[1]
@@ -94,7 +94,7 @@ def _bracket(hist, row, start, count, value):
     return (start + lo) % cap, (start + hi) % cap
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def delayed_state(hist, meta, phi_target, out):
     """Bit state at the time the total angle was ``phi_target``.
 
@@ -169,7 +169,7 @@ def delayed_state(hist, meta, phi_target, out):
     out[2] = _hermite(p0, p1, dp0, dp1, h, s) - phi_target
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def velocities_at_time(hist, meta, t, out):
     """Bit velocities (U', Φ') at time ``t`` from the derivative of the Hermite interpolant.
 

@@ -17,7 +17,15 @@ from .parameters import ParameterError
 from .scenario import Scenario
 from .simulation import Simulation
 
-__all__ = ['DigitalTwin', 'SetpointError']
+__all__ = ['DigitalTwin', 'SetpointError', 'aligned_step']
+
+
+def aligned_step(step_s: float, period_s: float) -> float:
+    """The largest step <= ``step_s`` that divides ``period_s`` (of simulated time) into a
+    whole number of steps, so that samples taken every period land exactly on it."""
+    if not (step_s > 0 and period_s > 0):
+        raise ParameterError(f'need step_s > 0 and period_s > 0, got {step_s}, {period_s}')
+    return period_s / math.ceil(period_s / step_s - 1e-9)
 
 
 class SetpointError(ValueError):
@@ -39,11 +47,15 @@ class DigitalTwin:
         Set-points above are rejected as absurd.
     severity_window_s : float
         Sliding window of the stick-slip severity [s].
+    time_step_s : float, optional
+        Integration step [s]; default the scenario's.  The twin node passes a step
+        slightly shorter than the configured one so that a publish period is a whole
+        number of steps (:func:`aligned_step`).
     """
 
     def __init__(self, scenario: Scenario, mud_density_kg_m3: float = 1200.0,
                  drive_time_constant_s: float = 0.0, max_surface_speed_rad_s: float = 40.0,
-                 severity_window_s: float = 10.0):
+                 severity_window_s: float = 10.0, time_step_s: float | None = None):
         if not scenario.is_si:
             raise ParameterError('the digital twin needs an SI configuration (units: si)')
         self.scenario = scenario
@@ -52,10 +64,13 @@ class DigitalTwin:
                           'drive_time_constant_s': float(drive_time_constant_s),
                           'max_surface_speed_rad_s': float(max_surface_speed_rad_s),
                           'severity_window_s': float(severity_window_s)}
+        if time_step_s is not None:
+            self._settings['time_step_s'] = float(time_step_s)
         # with the configuration's initial perturbation, as in the offline run (a real rig
         # is never exactly at the steady state)
         self.sim = Simulation.from_scenario(
-            scenario, drive_time_constant=drive_time_constant_s / scenario.scales.time_s)
+            scenario, drive_time_constant=drive_time_constant_s / scenario.scales.time_s,
+            time_step=None if time_step_s is None else time_step_s / scenario.scales.time_s)
         self.string_weight_N = scenario.system.buoyed_weight_N(mud_density_kg_m3)
         self.max_surface_speed = float(max_surface_speed_rad_s)
         self.nominal_wob_N = scenario.groups.W_o * self.scales.force_N
@@ -64,6 +79,10 @@ class DigitalTwin:
         self.rejected = 0
         self._window = deque()
         self._window_s = float(severity_window_s)
+
+    def warm_up(self):
+        """Compile and run the kernels once (on a copy) before a real-time loop starts."""
+        self.sim.warm_up()
 
     def settings(self) -> dict:
         """The constructor's keyword arguments (to rebuild an identical twin)."""
@@ -114,7 +133,9 @@ class DigitalTwin:
     def advance_to(self, time_s: float, max_steps: int | None = None) -> int:
         """Advance to the step that ends at or before ``time_s`` [s]; returns the steps taken
         (capped by ``max_steps``)."""
-        steps = int(math.floor((time_s - self.time_s) / self.step_s + 1e-9))
+        # whole steps; a millionth of a step of round-off in the accumulated time must not
+        # cost a step
+        steps = int(math.floor((time_s - self.time_s) / self.step_s + 1e-6))
         if max_steps is not None:
             steps = min(steps, max_steps)
         if steps > 0:

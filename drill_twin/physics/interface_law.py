@@ -24,25 +24,25 @@ from numba import njit
 __all__ = ['cutting_force', 'wear_flat_force', 'bit_weight', 'bit_torque']
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def cutting_force(depth_of_cut, n_b, in_contact):
     """Cutting component n_b δ of both W (units W*) and T (units C); 0 off bottom."""
     return n_b * depth_of_cut if in_contact else 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def wear_flat_force(moving_down, in_contact, n_b, lam):
     """Wear-flat contact force W_f while sliding: n_b λ moving down, 0 moving up/off bottom."""
     return n_b * lam if (moving_down and in_contact) else 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def bit_weight(cutting, wear_flat):
     """Weight on bit W = W_c + W_f (eq. 2.2.4)."""
     return cutting + wear_flat
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def bit_torque(cutting, wear_flat, beta):
     """Torque on bit T = T_c + T_f = n_b δ + β W_f (eq. 2.2.5, units C)."""
     return cutting + beta * wear_flat

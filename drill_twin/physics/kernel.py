@@ -90,7 +90,7 @@ def pack_chain(chain) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve(ch, r, out):
     """Solve the tridiagonal system M out = r with the precomputed Thomas factors."""
     n = r.size
@@ -106,7 +106,7 @@ def _solve(ch, r, out):
         out[i] -= cp[i] * out[i + 1]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _internal_force(ch, q, qd, out):
     """out = -(C qd + K q) for a tridiagonal chain."""
     n = q.size
@@ -119,7 +119,7 @@ def _internal_force(ch, q, qd, out):
         out[i] = -s
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bit_totals(tau, x, P, na, nt):
     """Total bit axial position/velocity and angle/speed (U, V, Φ, Ω), dimensionless."""
     ub = P[P_UPS] * tau + x[na - 1]
@@ -134,7 +134,7 @@ def bit_totals(tau, x, P, na, nt):
     return ub, vb, phb, omb
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, dstate):
     """Right-hand side of the first-order system in a fixed interface mode."""
     na = A.shape[1]
@@ -223,7 +223,7 @@ def rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, dstate):
         aux[AX_TREQ] = aux[AX_T]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _switching(tau, x, mode, P, aux, na, nt, g):
     """Switching functions of the current mode; the mode is valid while all g >= 0."""
     ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
@@ -261,7 +261,7 @@ def _switching(tau, x, mode, P, aux, na, nt, g):
         g[3] = aux[AX_DELTA] if contact else -aux[AX_DELTA]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rk4(tau, x, h, k1, mode, P, IN, A, T, hist, meta, out, k2, k3, k4, tmp, aux, ra, ya,
          rt, yt, ds):
     n = x.size
@@ -278,7 +278,7 @@ def _rk4(tau, x, h, k1, mode, P, IN, A, T, hist, meta, out, k2, k3, k4, tmp, aux
         out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _settle(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds, counters):
     """Choose the interface mode consistent with the state after an event.
 
@@ -337,7 +337,7 @@ def _settle(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds, 
     rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _write_record(tau, stick_time, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt,
                   ds, row):
     """Fill one record row (channels R_*) from the current state."""
@@ -369,7 +369,7 @@ def _write_record(tau, stick_time, x, mode, P, IN, A, T, hist, meta, dx, aux, ra
     row[R_STICK_TIME] = stick_time
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def snapshot(tau_arr, x, mode, P, IN, A, T, hist, meta, row):
     """The record row of the current state, without advancing."""
     na = A.shape[1]
@@ -379,7 +379,7 @@ def snapshot(tau_arr, x, mode, P, IN, A, T, hist, meta, row):
                   np.empty(nt), np.zeros(3), row)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, record,
             record_every, n_rec, state_record):
     """Advance ``n_steps`` steps of size ``h`` (dimensionless) in place.

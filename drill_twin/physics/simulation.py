@@ -8,6 +8,7 @@ numba.  The same object serves the offline CLI and a real-time node (call
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -268,6 +269,15 @@ class Simulation:
         data = np.concatenate(parts) if parts else np.zeros((0, K.N_RECORD))
         state = np.concatenate(states) if record_state and states else None
         return Trajectory(data, state)
+
+    def warm_up(self):
+        """Compile (or load from numba's cache) and execute once every kernel that
+        :meth:`advance` and :meth:`snapshot` call, on a copy of this simulation (its state
+        is untouched), so that the first real step of a real-time loop costs what every
+        other step costs."""
+        scratch = copy.deepcopy(self)
+        scratch.advance(2, record_every=1, record_state=True)
+        scratch.snapshot()
 
     def snapshot(self) -> dict:
         """Current recorded channels (dimensionless), without advancing."""

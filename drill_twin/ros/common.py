@@ -1,12 +1,20 @@
-"""Helpers shared by the drill_twin nodes."""
+"""Helpers shared by the drill_twin nodes: parameters from the settings tables, and the
+process life cycle (init, construct, spin, shut down) with clean exits."""
 from __future__ import annotations
+
+import difflib
+import sys
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
 
 from ..physics.parameters import ParameterError
+from ..runtime.settings import Setting, check
+from .entry import install_quiet_signals, rclpy_took_over
 
-__all__ = ['float_range', 'run_node']
+__all__ = ['float_range', 'declare_settings', 'warn_unknown_overrides', 'run_node']
 
 
 def float_range(lo, hi, text) -> ParameterDescriptor:
@@ -15,18 +23,87 @@ def float_range(lo, hi, text) -> ParameterDescriptor:
         FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)])
 
 
+def _descriptor(setting: Setting) -> ParameterDescriptor:
+    if setting.low is not None:
+        desc = float_range(setting.low, setting.high, setting.text)
+    else:
+        desc = ParameterDescriptor(description=setting.text)
+    desc.read_only = setting.read_only
+    return desc
+
+
+_TYPE_NAMES = {bool: 'true or false', float: 'a number', int: 'an integer', str: 'a string',
+               list: 'a list of strings'}
+
+
+def declare_settings(node, settings):
+    """Declare one ROS parameter per :class:`~drill_twin.runtime.settings.Setting`
+    (read-only ones act at start-up only: ``ros2 param describe`` says so).
+
+    A start-up value (``-p name:=value``) of the wrong type or out of range raises
+    :class:`~drill_twin.physics.parameters.ParameterError` with one line naming the
+    parameter, the value, its unit and what is allowed.
+    """
+    for s in settings:
+        try:
+            node.declare_parameter(s.name, s.default, _descriptor(s))
+        except ParameterException:
+            given = getattr(node, '_parameter_overrides', {}).get(s.name)
+            value = given.value if given is not None else s.default
+            reason = check(s, value) if isinstance(value, type(s.default)) or (
+                isinstance(s.default, float) and isinstance(value, int)) else None
+            if reason is None:
+                reason = (f'{s.name} = {value!r}: must be {_TYPE_NAMES[type(s.default)]}'
+                          f' ({s.text})')
+            raise ParameterError(f'parameter {reason}') from None
+
+
+def warn_unknown_overrides(node):
+    """Log the parameter overrides given to this node that it does not have (a typo such as
+    ``real_time_facter`` would otherwise be ignored silently)."""
+    for name in sorted(getattr(node, '_parameter_overrides', {})):
+        if node.has_parameter(name):
+            continue
+        close = difflib.get_close_matches(name, list(node._parameters), n=1)
+        hint = f' (did you mean {close[0]}?)' if close else ''
+        node.get_logger().warning(f'unknown parameter {name!r} ignored{hint}')
+
+
+def _one_line(exc) -> str:
+    return ' '.join(str(exc).split())
+
+
 def run_node(node_class, label, args=None) -> int:
-    """init, construct (configuration errors: message, exit 2), spin, clean shutdown."""
+    """init, construct, spin, shut down.
+
+    Exit codes: 0 after SIGINT/SIGTERM (also when the signal arrives during
+    construction); 2 with one line on stderr for bad configuration or parameters;
+    an unexpected internal error keeps its traceback (exit code 1).
+    """
+    import threading
+    if threading.current_thread() is threading.main_thread():
+        install_quiet_signals()   # rclpy chains its handlers to these
     rclpy.init(args=args)
+    rclpy_took_over()
+    node = None
     try:
         node = node_class()
-    except (ParameterError, ValueError, OSError) as exc:
-        print(f'{label}: error: {exc}')
-        rclpy.shutdown()
+    except (ParameterError, ParameterException, ValueError, OSError) as exc:
+        if not rclpy.ok():      # a signal shut the context down while we were building
+            return 0
+        print(f'{label}: error: {_one_line(exc)}', file=sys.stderr)
+        rclpy.try_shutdown()
         return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        rclpy.try_shutdown()
+        return 0
+    except Exception:
+        if not rclpy.ok():
+            return 0
+        raise
     try:
         rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+    except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:  # noqa: BLE001
         # SIGINT/SIGTERM shut the context down from the signal handler; a callback that
@@ -35,6 +112,5 @@ def run_node(node_class, label, args=None) -> int:
             raise
     finally:
         node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+        rclpy.try_shutdown()
     return 0

@@ -44,8 +44,10 @@ class Player(Node):
     """Publishes a :class:`~drill_twin.io.mcap_reader.Recording` (see module docstring)."""
 
     def __init__(self, recording: Recording, topics=None, rate: float = 1.0,
-                 as_fast_as_possible: bool = False, **kwargs):
+                 as_fast_as_possible: bool = False, clock=time.monotonic, sleep=time.sleep,
+                 **kwargs):
         super().__init__('drill_twin_player', **kwargs)
+        self._clock, self._sleep = clock, sleep  # steady clock and sleep (tests inject)
         if not (rate > 0):
             raise ValueError(f'rate must be > 0, got {rate}')
         self.recording = recording
@@ -68,7 +70,7 @@ class Player(Node):
 
     def play(self, stop=None) -> int:
         """Publish every selected message; ``stop()`` -> True ends early.  Returns the count."""
-        start = time.monotonic()
+        start = self._clock()
         t0 = None
         for topic, t_ns, data in self.recording.messages(self.topics):
             if stop is not None and stop():
@@ -79,9 +81,9 @@ class Player(Node):
                 clock.clock.sec, clock.clock.nanosec = divmod(t_ns, 1_000_000_000)
                 self.clock_pub.publish(clock)
             else:
-                delay = start + (t_ns - t0) * 1e-9 / self.rate - time.monotonic()
+                delay = start + (t_ns - t0) * 1e-9 / self.rate - self._clock()
                 if delay > 0:
-                    time.sleep(delay)  # pacing to the recorded timing
+                    self._sleep(delay)  # pacing to the recorded timing
             pub = self.pubs.get(topic)
             if pub is not None:
                 pub.publish(data)

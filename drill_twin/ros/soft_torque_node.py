@@ -2,21 +2,23 @@
 :class:`drill_twin.physics.soft_torque.SoftTorqueController`).
 
 Inputs: the operator's ``surface_speed_setpoint`` [rad/s] and the measured
-``surface/torque`` [N m] (and ``surface/top_drive_speed`` for the start-up
-state).  Output: ``surface_speed_command`` [rad/s] at ``control_rate_hz``.
-Tuning (I_DS, k_f, c_f, ξ_opt) is computed from the string in ``config``.
-The controller integrates on the node clock, so with ``use_sim_time`` it
-follows the twin's ``/clock``.
-If torque measurements stop for ``measurement_timeout_s`` the node commands
-the operator set-point unchanged and says so (diagnostics + log); it resumes
-when measurements return.  ``enabled`` switches the controller at run time.
+``surface/torque`` [N m].  Output: ``surface_speed_command`` [rad/s] at
+``control_rate_hz``.  Tuning (I_DS, k_f, c_f, ξ_opt) is computed from the string
+in ``config``.  The controller integrates on the node clock, so with
+``use_sim_time`` it follows the twin's ``/clock``.
+If torque measurements stop for ``measurement_timeout_s``
+(:class:`~drill_twin.runtime.arbitration.Watchdog`) the node commands the
+operator set-point unchanged and says so (diagnostics + log); it resumes when
+measurements return.  Every parameter but ``config`` applies at run time:
+validated when set, applied after success (post-set callback).
 """
 from __future__ import annotations
 
+import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
@@ -24,7 +26,9 @@ from std_msgs.msg import Float64
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from ..physics.soft_torque import SoftTorqueController, soft_torque_si
-from .common import float_range, run_node
+from ..runtime.arbitration import Watchdog
+from ..runtime.settings import CONTROLLER_SETTINGS
+from .common import declare_settings, run_node, warn_unknown_overrides
 from .twin_node import COMMAND_QOS, SETPOINT_QOS
 
 __all__ = ['SoftTorqueNode', 'main']
@@ -35,31 +39,25 @@ class SoftTorqueNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('soft_torque', **kwargs)
-        p = self.declare_parameter
-        p('config', 'benchmark_fem', ParameterDescriptor(
-            description='string configuration the tuning is computed from (SI)'))
-        p('control_rate_hz', 100.0, float_range(1.0, 5000.0, 'command rate [Hz]'))
-        p('enabled', True, ParameterDescriptor(description='Soft-Torque on/off'))
-        p('max_surface_speed_rad_s', 40.0, float_range(0.1, 100.0, 'command upper bound'))
-        p('max_acceleration_rad_s2', 20.0, float_range(0.01, 1000.0, 'command rate limit'))
-        p('measurement_timeout_s', 0.5, float_range(0.01, 60.0, 'torque silence before fallback'))
-        p('torque_filter_s', 1000.0, float_range(0.1, 1e6, 'reference-torque low-pass [s]'))
-        g = self.get_parameter
-        scenario = load_scenario(g('config').value)
+        declare_settings(self, CONTROLLER_SETTINGS)
+        warn_unknown_overrides(self)
+        g = self._param
+        scenario = load_scenario(g('config'))
         if not scenario.is_si:
-            raise ParameterError('soft_torque_node needs an SI configuration')
+            raise ParameterError('soft_torque_node needs an SI configuration (units: si)')
         self.tuning = soft_torque_si(scenario.system)
         self.ctrl = SoftTorqueController(
             self.tuning['inertia'], self.tuning['stiffness'], self.tuning['damping'],
-            max_speed_rad_s=g('max_surface_speed_rad_s').value,
-            max_accel_rad_s2=g('max_acceleration_rad_s2').value,
-            torque_filter_s=g('torque_filter_s').value)
-        self.ctrl.enabled = g('enabled').value
+            max_speed_rad_s=g('max_surface_speed_rad_s'),
+            max_accel_rad_s2=g('max_acceleration_rad_s2'),
+            torque_filter_s=g('torque_filter_s'))
+        self.ctrl.enabled = g('enabled')
         self.setpoint = None
         self.torque = None
-        self.torque_time = None
+        self.torque_watch = Watchdog(g('measurement_timeout_s'))
         self.fallbacks = 0
         self.in_fallback = False
+        self.rejected = 0
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_setpoint,
                                  SETPOINT_QOS)
         self.create_subscription(Float64, 'surface/torque', self._on_torque,
@@ -67,25 +65,43 @@ class SoftTorqueNode(Node):
         self.cmd_pub = self.create_publisher(Float64, 'surface_speed_command', COMMAND_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._last = None
-        self._timer = self.create_timer(1.0 / g('control_rate_hz').value, self._control)
+        self._timer = self.create_timer(1.0 / g('control_rate_hz'), self._control)
         self.create_timer(1.0, self._diagnostics)
-        self.add_on_set_parameters_callback(self._on_parameters)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
         self.get_logger().info(
             'Soft-Torque tuned: I_DS {inertia:.0f} kg m2, k_f {stiffness:.0f} N m/rad, '
             'c_f {damping:.0f} N m s/rad, xi_opt {xi_opt:.3f}'.format(**self.tuning))
 
+    def _param(self, name):
+        return self.get_parameter(name).value
+
     def _on_setpoint(self, msg):
-        if msg.data != msg.data or not 0.0 <= msg.data <= self.ctrl.max_speed:
-            self.get_logger().warning(f'rejected set-point {msg.data}')
+        value = msg.data
+        if not (math.isfinite(value) and 0.0 <= value <= self.ctrl.max_speed):
+            self.rejected += 1
+            self.get_logger().warning(
+                f'rejected set-point {value} rad/s: outside [0, {self.ctrl.max_speed:g}] rad/s; '
+                f'keeping {self.setpoint}')
             return
-        self.setpoint = msg.data
+        self.setpoint = value
 
     def _on_torque(self, msg):
-        if msg.data == msg.data:  # NaN measurements are ignored
+        if math.isfinite(msg.data):  # non-finite measurements are ignored
             self.torque = msg.data
-            self.torque_time = time.monotonic()
+            self.torque_watch.feed(time.monotonic())
 
-    def _on_parameters(self, params):
+    # --- parameters: validate on set, apply after ------------------------------------
+    def _validate_parameters(self, params):
+        for prm in params:
+            if prm.name == 'max_surface_speed_rad_s' and self.setpoint is not None \
+                    and prm.value < self.setpoint:
+                return SetParametersResult(successful=False, reason=(
+                    f'max_surface_speed_rad_s {prm.value:g} rad/s is below the set-point '
+                    f'{self.setpoint:g} rad/s; lower the set-point first'))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params):
         for prm in params:
             if prm.name == 'enabled':
                 self.ctrl.enabled = bool(prm.value)
@@ -93,12 +109,18 @@ class SoftTorqueNode(Node):
                     self.ctrl.reset(self.setpoint, torque=self.torque)
             elif prm.name == 'control_rate_hz':
                 self._timer.cancel()
+                self.destroy_timer(self._timer)
                 self._timer = self.create_timer(1.0 / prm.value, self._control)
-            elif prm.name == 'config':
-                return SetParametersResult(successful=False,
-                                           reason='config only takes effect at start-up')
-        return SetParametersResult(successful=True)
+            elif prm.name == 'max_surface_speed_rad_s':
+                self.ctrl.max_speed = float(prm.value)
+            elif prm.name == 'max_acceleration_rad_s2':
+                self.ctrl.max_accel = float(prm.value)
+            elif prm.name == 'torque_filter_s':
+                self.ctrl.torque_filter_s = float(prm.value)
+            elif prm.name == 'measurement_timeout_s':
+                self.torque_watch.timeout_s = float(prm.value)
 
+    # --- control loop ------------------------------------------------------------------
     def _control(self):
         if self.setpoint is None:
             return  # nothing to track yet
@@ -107,15 +129,12 @@ class SoftTorqueNode(Node):
         dt = (clock_now - self._last) if self._last is not None else 0.0
         self._last = clock_now
         if dt <= 0.0:
-            dt = 1.0 / self.get_parameter('control_rate_hz').value
-        now = time.monotonic()
-        stale = self.torque_time is None or \
-            now - self.torque_time > self.get_parameter('measurement_timeout_s').value
-        if stale:
-            if not self.in_fallback:
-                self.fallbacks += 1
-                self.get_logger().warning('surface torque not arriving: holding the operator '
-                                          'set-point')
+            dt = 1.0 / self._param('control_rate_hz')
+        if self.torque_watch.expired(time.monotonic()):  # it was arriving, and stopped
+            self.fallbacks += 1
+            self.get_logger().warning('surface torque not arriving: holding the operator '
+                                      'set-point')
+        if self.torque_watch.silent:
             self.in_fallback = True
             self.ctrl.reset(self.setpoint, torque=self.torque)
             command = self.setpoint
@@ -129,11 +148,15 @@ class SoftTorqueNode(Node):
     def _diagnostics(self):
         st = DiagnosticStatus(name='drill_twin: soft_torque', hardware_id='drill_twin')
         if self.in_fallback:
-            st.level, st.message = DiagnosticStatus.WARN, 'no torque measurement: holding set-point'
+            st.level = DiagnosticStatus.WARN
+            st.message = ('surface torque stopped: holding the set-point' if
+                          self.torque_watch.last_s is not None else
+                          'no surface torque yet: holding the set-point')
         else:
             st.level = DiagnosticStatus.OK
-            st.message = 'enabled' if self.ctrl.enabled else 'disabled'
+            st.message = 'enabled' if self.ctrl.enabled else 'disabled (passing the set-point)'
         st.values = [KeyValue(key='fallbacks', value=str(self.fallbacks)),
+                     KeyValue(key='rejected_setpoints', value=str(self.rejected)),
                      KeyValue(key='xi_opt', value=f"{self.tuning['xi_opt']:.4f}")]
         arr = DiagnosticArray(status=[st])
         arr.header.stamp = self.get_clock().now().to_msg()

@@ -1,38 +1,53 @@
 """``twin_node``: the drilling digital twin as a ROS 2 node (thin adapter over
-:class:`drill_twin.physics.digital_twin.DigitalTwin`).
+:class:`drill_twin.physics.digital_twin.DigitalTwin` and the real-time policy of
+:mod:`drill_twin.runtime`).
 
-Time: a wall-clock timer advances the model to ``(now - start) * real_time_factor``
-(steady clock, so it never drifts; catching up is capped per tick and counted
-as an overrun).  With ``as_fast_as_possible`` it runs unthrottled and
-publishes ``/clock`` so that other nodes can follow simulated time.
+Time: a wall-clock timer advances the model to where the steady clock says it
+should be (:class:`~drill_twin.runtime.pacing.Pacer`: no drift, bounded catch-up,
+overruns and slips counted).  With ``as_fast_as_possible`` it runs unthrottled
+and publishes ``/clock`` so that other nodes can follow simulated time.  The
+numba kernels are compiled and run once before the timer starts.
 
-Speed precedence: a ``surface_speed_command`` (from the Soft-Torque controller)
-drives the motor while such commands keep arriving (within
-``command_timeout_s``); otherwise the operator's ``surface_speed_setpoint``
-does.  The controller tracks the operator set-point itself, so this lets it
-act, and falls back safely to the operator when it goes silent.
+Speed precedence (:class:`~drill_twin.runtime.arbitration.SpeedArbiter`): a
+``surface_speed_command`` (from the Soft-Torque controller) drives the motor while
+such commands keep arriving (within ``command_timeout_s``); otherwise the
+operator's ``surface_speed_setpoint`` does.
+
+Stability advisory: computed in a worker process of its own
+(:class:`~drill_twin.runtime.advisor.StabilityAdvisor`) every
+``stability_period_s`` and at once after a set-point change; the loop never
+waits for it.  ``stability_period_s: 0`` stops the worker.
+
+Parameters: validated when set (rclpy checks type, range and read-only from the
+descriptors; the on-set callback checks the rest), applied after success (the
+post-set callback), as in ros2/demos.  Read-only parameters act at start-up only.
+
 Recording: with ``record_path`` the twin writes its own run to MCAP
-(:class:`drill_twin.io.run_recorder.TwinRecorder`: simulated log time,
-set-points at the simulated time they were applied), which
+(:class:`drill_twin.io.run_recorder.TwinRecorder`: simulated log time, set-points
+and run-time parameter changes at the simulated time they were applied), which
 ``drill-twin replay --resimulate`` reproduces exactly.
 Topics, units, frames and QoS: see the README (the table is
 :data:`drill_twin.topics.TOPICS`).
 """
 from __future__ import annotations
 
-import threading
 import time
 
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from .. import topics as T
 from ..io.run_recorder import TwinRecorder
-from ..physics.digital_twin import DigitalTwin, SetpointError
-from ..physics.parameters import ParameterError
+from ..physics.digital_twin import DigitalTwin, SetpointError, aligned_step
 from ..physics.scenario import load_scenario
-from .common import float_range, run_node
+from ..physics.simulation import SimulationDiverged
+from ..runtime.advisor import StabilityAdvisor
+from ..runtime.arbitration import SpeedArbiter
+from ..runtime.health import ERROR, WARN, EventWindow, human, worst
+from ..runtime.pacing import Pacer
+from ..runtime.settings import TWIN_SETTINGS
+from .common import declare_settings, run_node, warn_unknown_overrides
 from .messages import message_class, qos_profile, to_message
 
 __all__ = ['TwinNode', 'main', 'SETPOINT_QOS', 'LATCHED_QOS']
@@ -44,8 +59,8 @@ LATCHED_QOS = SETPOINT_QOS
 #: controller commands: reliable, volatile (a stale command must not be replayed)
 COMMAND_QOS = qos_profile(T.COMMAND)
 
-_RESTART_ONLY = ('config', 'overrides', 'drive_time_constant_s', 'mud_density_kg_m3',
-                 'as_fast_as_possible', 'record_path', 'record_chunk_period_s')
+#: how far back /diagnostics levels look [s]
+HEALTH_WINDOW_S = 10.0
 
 
 class TwinNode(Node):
@@ -53,73 +68,66 @@ class TwinNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('drill_twin', **kwargs)
-        p = self.declare_parameter
-        p('config', 'benchmark_fem', ParameterDescriptor(
-            description='configuration file or name in share/drill_twin/config (SI)'))
-        p('overrides', [''], ParameterDescriptor(description='KEY=VALUE config overrides'))
-        p('real_time_factor', 1.0, float_range(0.01, 1000.0, 'simulated seconds per wall second'))
-        p('publish_rate_hz', 100.0, float_range(1.0, 2000.0, 'measurement publish rate [Hz]'))
-        p('drive_time_constant_s', 0.0, float_range(0.0, 10.0, 'speed-drive lag [s], 0 = stiff'))
-        p('mud_density_kg_m3', 1200.0, float_range(0.0, 3000.0, 'mud density [kg/m^3]'))
-        p('max_surface_speed_rad_s', 40.0, float_range(0.1, 100.0, 'largest accepted set-point'))
-        p('command_timeout_s', 0.5, float_range(0.01, 60.0, 'controller command validity [s]'))
-        p('stability_period_s', 30.0, float_range(0.0, 3600.0, 'stability advisory period, 0=off'))
-        p('as_fast_as_possible', False, ParameterDescriptor(
-            description='run unthrottled and publish /clock'))
-        p('record_path', '', ParameterDescriptor(
-            description='record the run to this .mcap file (simulated log time), "" = off'))
-        p('record_chunk_period_s', 0.25, float_range(
-            0.01, 10.0, 'longest span one MCAP chunk holds = most data a kill can lose [s]'))
-        g = self.get_parameter
-        overrides = [o for o in g('overrides').value if o]
-        self.twin = DigitalTwin(load_scenario(g('config').value, overrides),
-                                mud_density_kg_m3=g('mud_density_kg_m3').value,
-                                drive_time_constant_s=g('drive_time_constant_s').value,
-                                max_surface_speed_rad_s=g('max_surface_speed_rad_s').value)
-        self.operator_speed = self.twin.surface_speed_setpoint
-        self.last_command_time = None
-        self.overruns = 0
+        declare_settings(self, TWIN_SETTINGS)
+        warn_unknown_overrides(self)
+        g = self._param
+        overrides = [o for o in g('overrides') if o]
+        self.get_logger().info(f"loading {g('config')}; compiling the kernels if numba's "
+                               'cache is cold')
+        scenario = load_scenario(g('config'), overrides)
+        self.fast = g('as_fast_as_possible')
+        # a publish period of simulated time is a whole number of integration steps, so that
+        # samples (and their stamps) are evenly spaced
+        sample_s = (1.0 if self.fast else g('real_time_factor')) / g('publish_rate_hz')
+        self.twin = DigitalTwin(scenario, mud_density_kg_m3=g('mud_density_kg_m3'),
+                                drive_time_constant_s=g('drive_time_constant_s'),
+                                max_surface_speed_rad_s=g('max_surface_speed_rad_s'),
+                                time_step_s=aligned_step(scenario.time_step
+                                                         * scenario.time_unit_s, sample_s))
+        self.twin.warm_up()  # compile/run the kernels now, not in the first tick
+        self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
+        self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
+        self.health = EventWindow(HEALTH_WINDOW_S)
         self.blow_up = ''
         self.advisory = None
-        self._last_measurements = None  # of the latest tick (measurements() feeds a window)
-        self._lock = threading.Lock()
+        self.advisor = None
+        self._advice_due = 0.0
+        self._overflows_seen = 0
+        self._last_measurements = None
 
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
         self.create_subscription(Float64, 'hook_load_setpoint', self._on_hook_load, SETPOINT_QOS)
         self.create_subscription(Float64, 'surface_speed_command', self._on_command, COMMAND_QOS)
+        roles = ('measurement', 'advisory', 'diagnostics') + (('clock',) if self.fast else ())
         self.pub = {t.name: (message_class(t.type), self.create_publisher(
             message_class(t.type), t.name, qos_profile(t.qos)))
-            for t in T.TOPICS if t.role in ('measurement', 'advisory', 'diagnostics')}
+            for t in T.TOPICS if t.role in roles}
         self.recorder = None
-        if g('record_path').value:
+        if g('record_path'):
             self.recorder = TwinRecorder(
-                g('record_path').value, self.twin, g('config').value, overrides,
-                namespace=self.get_namespace(), chunk_period_s=g('record_chunk_period_s').value,
-                settings={'publish_rate_hz': g('publish_rate_hz').value,
-                          'real_time_factor': g('real_time_factor').value,
-                          'as_fast_as_possible': g('as_fast_as_possible').value,
-                          'source': 'twin_node'})
-            self.create_timer(g('record_chunk_period_s').value, self.recorder.flush)
-        self.fast = g('as_fast_as_possible').value
-        if self.fast:
-            clock = T.BY_NAME['/clock']
-            self.pub[clock.name] = (message_class(clock.type), self.create_publisher(
-                message_class(clock.type), clock.name, qos_profile(clock.qos)))
-        self.add_on_set_parameters_callback(self._on_parameters)
-        self._start_wall = None  # anchored at the first tick (start-up cost is not an overrun)
-        self._start_sim = self.twin.time_s
-        self._timer = self.create_timer(0.0 if self.fast else 1.0 / g('publish_rate_hz').value,
-                                        self._tick)
+                g('record_path'), self.twin, g('config'), overrides,
+                namespace=self.get_namespace(), node=self.get_fully_qualified_name(),
+                chunk_period_s=g('record_chunk_period_s'),
+                settings={'publish_rate_hz': g('publish_rate_hz'),
+                          'real_time_factor': g('real_time_factor'),
+                          'as_fast_as_possible': self.fast, 'source': 'twin_node'})
+            self.create_timer(g('record_chunk_period_s'), self.recorder.flush)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self._set_advisory_period(g('stability_period_s'))
+        self.create_timer(0.1, self._advise)
         self.create_timer(1.0, self._publish_diagnostics)
-        self._stop = threading.Event()
-        self._advisor = None
-        if g('stability_period_s').value > 0:
-            self._advisor = threading.Thread(target=self._advise, daemon=True)
-            self._advisor.start()
+        self._timer = self.create_timer(self._tick_period(), self._tick)
         self.get_logger().info(
             f'twin of {self.twin.scenario.model.name} running, step {self.twin.step_s:.2e} s, '
             f'hook load {self.twin.hook_load_N:.0f} N, surface speed '
             f'{self.twin.surface_speed_setpoint:.2f} rad/s')
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    def _tick_period(self) -> float:
+        return 0.0 if self.fast else 1.0 / self._param('publish_rate_hz')
 
     # --- inputs ----------------------------------------------------------------------
     def _send(self, name, fields, time_s=None):
@@ -129,88 +137,123 @@ class TwinNode(Node):
             self.recorder.event(name, fields, time_s)
         pub.publish(to_message(cls, fields))
 
-    def _apply_speed(self, value, source):
+    def _apply_speed(self, value, source) -> bool:
         """Apply a speed set-point or command; ``source`` is its topic (recorded as such;
         the return to the operator set-point is recorded as ``surface_speed_setpoint``)."""
+        if self.recorder is not None:  # recorded as applied, rejected ones included
+            self.recorder.setpoint(source, value)
         try:
-            with self._lock:
-                if self.recorder is not None:  # recorded as applied, rejected ones included
-                    self.recorder.setpoint(source, value)
-                self.twin.set_surface_speed(value)
+            self.twin.set_surface_speed(value)
             return True
         except SetpointError as exc:
+            self.health.add('rejected', time.monotonic())
             self.get_logger().warning(f'rejected {source}: {exc}; keeping '
                                       f'{self.twin.surface_speed_setpoint:.3f} rad/s')
             return False
 
     def _on_speed(self, msg):
         if self._apply_speed(msg.data, 'surface_speed_setpoint'):
-            self.operator_speed = msg.data
-            self.last_command_time = None  # a new operator set-point takes over at once
+            self.arbiter.on_operator(msg.data, time.monotonic())
+            self._advice_due = 0.0  # the advisory follows the new set-point at once
 
     def _on_command(self, msg):
         if self._apply_speed(msg.data, 'surface_speed_command'):
-            self.last_command_time = time.monotonic()
+            self.arbiter.on_command(msg.data, time.monotonic())
 
     def _on_hook_load(self, msg):
+        if self.recorder is not None:
+            self.recorder.setpoint('hook_load_setpoint', msg.data)
         try:
-            with self._lock:
-                if self.recorder is not None:
-                    self.recorder.setpoint('hook_load_setpoint', msg.data)
-                self.twin.set_hook_load(msg.data)
+            self.twin.set_hook_load(msg.data)
+            self._advice_due = 0.0
         except SetpointError as exc:
+            self.health.add('rejected', time.monotonic())
             self.get_logger().warning(f'rejected hook_load_setpoint: {exc}; keeping '
                                       f'{self.twin.hook_load_N:.0f} N')
 
-    def _on_parameters(self, params):
+    # --- parameters: validate on set, apply after ------------------------------------
+    def _validate_parameters(self, params):
         for prm in params:
-            if prm.name in _RESTART_ONLY:
-                return SetParametersResult(successful=False,
-                                           reason=f'{prm.name} only takes effect at start-up')
-        for prm in params:
-            if prm.name == 'real_time_factor':  # re-anchor so that simulated time is continuous
-                self._start_wall = time.monotonic()
-                self._start_sim = self.twin.time_s
-            if prm.name == 'publish_rate_hz' and not self.fast:
-                self._timer.cancel()
-                self._timer = self.create_timer(1.0 / prm.value, self._tick)
+            if prm.name == 'max_surface_speed_rad_s' and prm.value < self.arbiter.operator_speed:
+                return SetParametersResult(successful=False, reason=(
+                    f'max_surface_speed_rad_s {prm.value:g} rad/s is below the operator '
+                    f'set-point {self.arbiter.operator_speed:g} rad/s; lower the set-point '
+                    'first'))
         return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params):
+        wall, sim = time.monotonic(), self.twin.time_s
+        # the pacer re-anchors at the current instant: stamps stay continuous
+        for prm in params:
+            if prm.name == 'real_time_factor':
+                self.pacer.retime(wall, sim, real_time_factor=prm.value)
+            elif prm.name == 'publish_rate_hz' and not self.fast:
+                self.pacer.retime(wall, sim, period_s=1.0 / prm.value)
+                self._timer.cancel()
+                self.destroy_timer(self._timer)
+                self._timer = self.create_timer(1.0 / prm.value, self._tick)
+            elif prm.name == 'max_surface_speed_rad_s':
+                self.twin.max_surface_speed = float(prm.value)
+            elif prm.name == 'command_timeout_s':
+                self.arbiter.watchdog.timeout_s = float(prm.value)
+            elif prm.name == 'stability_period_s':
+                self._set_advisory_period(prm.value)
+        if self.recorder is not None:
+            self.recorder.parameters(params)
 
     # --- real-time loop ------------------------------------------------------------------
     def _tick(self):
         if self.blow_up:
             return
-        timeout = self.get_parameter('command_timeout_s').value
-        if self.last_command_time is not None and \
-                time.monotonic() - self.last_command_time > timeout:
-            self.last_command_time = None
+        wall = time.monotonic()
+        back = self.arbiter.check(wall)
+        if back is not None:
+            self.health.add('controller_timeout', wall)
             self.get_logger().warning('controller commands stopped: back to the operator '
                                       'set-point')
-            self._apply_speed(self.operator_speed, 'surface_speed_setpoint')
-        period = 1.0 / self.get_parameter('publish_rate_hz').value
+            self._apply_speed(back, 'surface_speed_setpoint')
         if self.fast:
-            target = self.twin.time_s + period
+            target, budget = self.twin.time_s + 1.0 / self._param('publish_rate_hz'), None
         else:
-            rtf = self.get_parameter('real_time_factor').value
-            if self._start_wall is None:
-                self._start_wall = time.monotonic()
-            target = self._start_sim + (time.monotonic() - self._start_wall) * rtf
-        nominal = max(1, int(period * (1.0 if self.fast else rtf) / self.twin.step_s))
+            plan = self.pacer.plan(self._scheduled(wall), self.twin.time_s, self._ros_now())
+            target, budget = plan.target_s, plan.max_steps
         try:
-            with self._lock:
-                self.twin.advance_to(target, max_steps=4 * nominal + 4)
-                m = self.twin.measurements()
-        except Exception as exc:  # noqa: BLE001 - model blow-up: report, keep the node up
+            self.twin.advance_to(target, max_steps=budget)
+            m = self.twin.measurements()
+        except SimulationDiverged as exc:  # model blow-up: report, keep the node up
             self.blow_up = str(exc)
             self.get_logger().error(f'model stopped: {exc}')
             return
-        if target - self.twin.time_s > 2 * self.twin.step_s:
-            self.overruns += 1
+        if not self.fast:
+            outcome = self.pacer.settle(time.monotonic(), self.twin.time_s, plan,
+                                        self._ros_now())
+            if outcome is not None:
+                self.health.add(outcome, wall)
         self._last_measurements = m
         self._publish(m)
 
+    def _scheduled(self, wall: float) -> float:
+        """The steady-clock time this tick was scheduled for: the timer keeps a fixed grid
+        (a late call does not shift the next ones), so the tick is due one period before
+        the next call."""
+        until_ns = self._timer.time_until_next_call()
+        if until_ns is None:
+            return wall
+        return wall + until_ns * 1e-9 - self._timer.timer_period_ns * 1e-9
+
+    def _ros_now(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _stamp_ns(self, time_s) -> int:
+        """ROS time of a simulated instant: the simulated time itself as fast as possible
+        (what /clock says), else its real-time mapping (:meth:`Pacer.stamp_ns`)."""
+        if self.fast:
+            return int(round(time_s * 1e9))
+        stamp = self.pacer.stamp_ns(time_s)
+        return self._ros_now() if stamp is None else stamp
+
     def _publish(self, m):
-        stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
+        stamp = T.stamp_fields(ns=self._stamp_ns(m['time_s']))
         messages = T.measurement_messages(m, stamp)
         if self.recorder is not None:  # first: whatever a subscriber got is in the file
             self.recorder.measurements(m, messages=messages)
@@ -220,50 +263,82 @@ class TwinNode(Node):
         if self.fast:
             self._send('/clock', T.clock_fields(m['time_s']), m['time_s'])
 
-    # --- stability advisory (off the real-time path) ---------------------------------
+    # --- stability advisory (worker process) -----------------------------------------
+    def _set_advisory_period(self, period_s):
+        if period_s > 0 and self.advisor is None:
+            self.advisor = StabilityAdvisor(self.twin.scenario.raw)
+            self._advice_due = 0.0
+        elif period_s == 0 and self.advisor is not None:
+            self.advisor.close()
+            self.advisor = None
+
     def _advise(self):
-        from ..stability.spectrum import critical_speed, spectral_abscissa
-        while not self._stop.is_set():
-            try:
-                with self._lock:
-                    groups = self.twin.operating_point()
-                model = self.twin.scenario.model
-                t_star = self.twin.scales.time_s
-                absc = spectral_abscissa(model, groups) / t_star
-                wc = critical_speed(model, groups, 0.2, 60.0 * t_star, samples=12, rtol=1e-3)
-                self.advisory = (absc, (wc / t_star) if wc is not None else float('nan'))
-                self._send('stability/spectral_abscissa', {'data': float(absc)})
-                self._send('stability/critical_surface_speed',
-                           {'data': float(self.advisory[1])})
-            except (ParameterError, ValueError) as exc:  # e.g. WOB below the friction threshold
-                self.get_logger().info(f'stability advisory skipped: {exc}')
-            self._stop.wait(self.get_parameter('stability_period_s').value)
+        if self.advisor is None:
+            return
+        answer = self.advisor.poll()
+        if answer is not None:
+            if 'error' in answer:
+                self.get_logger().info(f"stability advisory skipped: {answer['error']}")
+            else:
+                self.advisory = (answer['spectral_abscissa_1_s'],
+                                 answer['critical_surface_speed_rad_s'])
+                self._send('stability/spectral_abscissa', {'data': self.advisory[0]})
+                self._send('stability/critical_surface_speed', {'data': self.advisory[1]})
+        now = time.monotonic()
+        if now >= self._advice_due and not self.advisor.busy and self.advisor.alive:
+            wob = self.twin.string_weight_N - self.twin.hook_load_N
+            if self.advisor.request(self.arbiter.operator_speed, wob):
+                self._advice_due = now + self._param('stability_period_s')
+
+    def _status(self, now):
+        recent = {k: self.health.recent(k, now) for k in ('overrun', 'slip', 'rejected',
+                                                          'delay_overflow', 'controller_timeout')}
+        window = f'in the last {HEALTH_WINDOW_S:g} s'
+        advisor_down = self.advisor is not None and not self.advisor.alive
+        return worst(
+            (ERROR, f'model stopped: {self.blow_up}') if self.blow_up else None,
+            (WARN, f"{recent['overrun']} overruns {window}") if recent['overrun'] else None,
+            (WARN, f"real time slipped {recent['slip']} times {window}") if recent['slip']
+            else None,
+            (WARN, f"{recent['rejected']} set-points rejected {window}") if recent['rejected']
+            else None,
+            (WARN, f"{recent['delay_overflow']} delay-history overflows {window}")
+            if recent['delay_overflow'] else None,
+            (WARN, f"controller commands stopped {recent['controller_timeout']} times {window}")
+            if recent['controller_timeout'] else None,
+            (WARN, f'stability advisor stopped: {self.advisor.failure}') if advisor_down
+            else None), recent
 
     def _publish_diagnostics(self):
-        health = self.twin.health()
         m = self._last_measurements
         if m is None:
             return  # nothing simulated yet
-        if self.blow_up:
-            level, message = 2, f'model stopped: {self.blow_up}'
-        elif self.overruns or health['history_overflows']:
-            level, message = 1, 'overruns or delay overflow'
-        else:
-            level, message = 0, 'running'
-        values = {'simulated_time_s': m['time_s'], 'delay_residual_rad': m['delay_residual_rad'],
-                  'overruns': self.overruns, 'rejected_setpoints': health['rejected_setpoints'],
+        now = time.monotonic()
+        health = self.twin.health()
+        self.health.add('delay_overflow', now, health['history_overflows'] - self._overflows_seen)
+        self._overflows_seen = health['history_overflows']
+        (level, message), recent = self._status(now)
+        values = {'simulated_time_s': round(m['time_s'], 3),
+                  'speed_source': self.arbiter.source,
+                  'delay_residual_rad': m['delay_residual_rad'],
+                  'overruns': self.health.total('overrun'),
+                  'overruns_last_10s': recent['overrun'],
+                  'real_time_slips': self.health.total('slip'),
+                  'controller_timeouts': self.health.total('controller_timeout'),
+                  'rejected_setpoints': health['rejected_setpoints'],
                   'delay_history_overflows': health['history_overflows'],
                   'stick_slip_events': health['events']}
         if self.advisory:
             values['spectral_abscissa_1_s'], values['critical_surface_speed_rad_s'] = \
                 self.advisory
         stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
-        self._send('/diagnostics', T.diagnostics_fields(stamp, level, message, values))
+        self._send('/diagnostics', T.diagnostics_fields(
+            stamp, level, message, {k: human(v) for k, v in values.items()}))
 
     def destroy_node(self):
-        self._stop.set()
-        if self._advisor is not None:
-            self._advisor.join(timeout=30.0)
+        if self.advisor is not None:
+            self.advisor.close()
+            self.advisor = None
         if self.recorder is not None:
             self.recorder.close()
         return super().destroy_node()

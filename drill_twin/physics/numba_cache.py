@@ -1,0 +1,53 @@
+"""Where numba keeps the compiled physics kernels: a cache directory keyed by their sources.
+
+numba's on-disk cache (``cache=True``) is keyed by the timestamp of the file of
+the function it compiles, not by the files that function calls: after an edit
+of a jitted helper in another module the old machine code keeps running.  To
+make stale code impossible, the cache directory is named after a hash of every
+source file of :mod:`drill_twin.physics`: any edit of any of them gives a new,
+empty directory (and a fresh compile), whatever the timestamps say.
+
+The root is ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/drill_twin/numba``
+(``~/.cache/drill_twin/numba``); ``make clean-cache`` removes it.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+__all__ = ['source_key', 'cache_root', 'cache_dir', 'configure']
+
+PHYSICS_DIR = Path(__file__).resolve().parent
+
+
+def source_key(folder: Path = PHYSICS_DIR) -> str:
+    """16 hex digits of SHA-256 over the names and contents of ``folder/*.py``."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(folder).glob('*.py')):
+        digest.update(path.name.encode())
+        digest.update(b'\0')
+        digest.update(path.read_bytes())
+        digest.update(b'\0')
+    return digest.hexdigest()[:16]
+
+
+def cache_root() -> Path:
+    """``$NUMBA_CACHE_DIR``, or the user's cache directory for drill_twin."""
+    if os.environ.get('NUMBA_CACHE_DIR'):
+        return Path(os.environ['NUMBA_CACHE_DIR'])
+    base = os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache'
+    return Path(base) / 'drill_twin' / 'numba'
+
+
+def cache_dir() -> Path:
+    """The cache directory of the current physics sources."""
+    return cache_root() / source_key()
+
+
+def configure() -> Path:
+    """Point numba at :func:`cache_dir` (before any kernel module is imported)."""
+    import numba
+    path = cache_dir()
+    numba.config.CACHE_DIR = str(path)
+    return path

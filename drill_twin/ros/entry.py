@@ -1,0 +1,51 @@
+"""Console-script entry points of the nodes (``ros2 run drill_twin twin_node`` ...).
+
+This module imports nothing heavy: it first makes SIGINT and SIGTERM end the
+process quietly (exit code 0, no traceback) while the node's modules are still
+being imported, then imports and runs the node.  Once rclpy is initialised its
+own handlers shut the node down (:func:`drill_twin.ros.common.run_node`).
+"""
+from __future__ import annotations
+
+import importlib
+import signal
+
+__all__ = ['install_quiet_signals', 'rclpy_took_over', 'twin_node', 'soft_torque_node',
+           'mcap_recorder']
+
+_ROS_HANDLES_SIGNALS = [False]
+
+
+def _quiet_exit(signum, frame):
+    if not _ROS_HANDLES_SIGNALS[0]:
+        raise SystemExit(0)
+    # after rclpy.init its C-level handler has already shut the context down: spinning
+    # ends by itself and the node is destroyed properly
+
+
+def install_quiet_signals():
+    """SIGINT/SIGTERM before rclpy is initialised: exit 0 without a traceback."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _quiet_exit)
+
+
+def rclpy_took_over():
+    """Called right after ``rclpy.init``: from now on a signal is a ROS shutdown."""
+    _ROS_HANDLES_SIGNALS[0] = True
+
+
+def _run(module: str) -> int:
+    install_quiet_signals()
+    return importlib.import_module(module).main()
+
+
+def twin_node() -> int:
+    return _run('drill_twin.ros.twin_node')
+
+
+def soft_torque_node() -> int:
+    return _run('drill_twin.ros.soft_torque_node')
+
+
+def mcap_recorder() -> int:
+    return _run('drill_twin.ros.recorder_node')

@@ -1,0 +1,88 @@
+"""The run-time settings of the nodes as plain data: type, unit, range, start-up only or not.
+
+Each node declares its ROS parameters from one of these tables
+(:func:`drill_twin.ros.common.declare_settings`), so that ``ros2 param describe``
+shows the unit, the range and whether the parameter is read-only (acts only at
+start-up), and tests can check every entry without ROS.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'check']
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One node parameter.
+
+    ``low``/``high`` bound a float (inclusive); ``read_only`` parameters act only at
+    start-up (set them with ``--ros-args -p`` or in a launch file).
+    """
+
+    name: str
+    default: object
+    description: str
+    unit: str = ''
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+
+    @property
+    def text(self) -> str:
+        unit = f' [{self.unit}]' if self.unit else ''
+        when = ' (start-up only)' if self.read_only else ''
+        return f'{self.description}{unit}{when}'
+
+
+def check(setting: Setting, value) -> str | None:
+    """Why ``value`` is not acceptable for ``setting`` (None if it is)."""
+    if setting.low is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f'{setting.name} must be a number, got {value!r}'
+    if not (math.isfinite(value) and setting.low <= value <= setting.high):
+        unit = f' {setting.unit}' if setting.unit else ''
+        return (f'{setting.name} = {value!r}{unit} outside [{setting.low:g}, '
+                f'{setting.high:g}]{unit}')
+    return None
+
+
+TWIN_SETTINGS = (
+    Setting('config', 'benchmark_fem', 'configuration file, or a name in '
+            'share/drill_twin/config (units: si)', read_only=True),
+    Setting('overrides', [''], 'configuration overrides KEY=VALUE (dotted keys)',
+            read_only=True),
+    Setting('real_time_factor', 1.0, 'simulated seconds per wall second', '', 0.01, 1000.0),
+    Setting('publish_rate_hz', 100.0, 'measurement publish rate', 'Hz', 1.0, 2000.0),
+    Setting('drive_time_constant_s', 0.0, 'speed-drive lag, 0 = stiff drive', 's', 0.0, 10.0,
+            read_only=True),
+    Setting('mud_density_kg_m3', 1200.0, 'mud density (buoyed weight: hook load <-> WOB)',
+            'kg/m^3', 0.0, 3000.0, read_only=True),
+    Setting('max_surface_speed_rad_s', 40.0, 'largest accepted surface-speed set-point',
+            'rad/s', 0.1, 100.0),
+    Setting('command_timeout_s', 0.5, 'controller commands older than this are ignored '
+            '(back to the operator set-point)', 's', 0.01, 60.0),
+    Setting('stability_period_s', 30.0, 'stability advisory period, 0 = off', 's', 0.0, 3600.0),
+    Setting('as_fast_as_possible', False, 'run unthrottled and publish /clock',
+            read_only=True),
+    Setting('record_path', '', 'record the run to this .mcap file (simulated log time), '
+            '"" = off', read_only=True),
+    Setting('record_chunk_period_s', 0.25, 'longest span one MCAP chunk holds = most a kill '
+            'can lose', 's', 0.01, 10.0, read_only=True),
+)
+
+CONTROLLER_SETTINGS = (
+    Setting('config', 'benchmark_fem', 'string configuration the tuning is computed from '
+            '(units: si)', read_only=True),
+    Setting('control_rate_hz', 100.0, 'command rate', 'Hz', 1.0, 5000.0),
+    Setting('enabled', True, 'Soft-Torque on (true) or pass the set-point through (false)'),
+    Setting('max_surface_speed_rad_s', 40.0, 'command upper bound; larger set-points are '
+            'rejected', 'rad/s', 0.1, 100.0),
+    Setting('max_acceleration_rad_s2', 20.0, 'command rate limit', 'rad/s^2', 0.01, 1000.0),
+    Setting('measurement_timeout_s', 0.5, 'torque silence before holding the set-point', 's',
+            0.01, 60.0),
+    Setting('torque_filter_s', 1000.0, 'time constant of the reference-torque low-pass', 's',
+            0.1, 1e6),
+)
