@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.drill_twin-installed
 REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt setup.py setup.cfg pyproject.toml
 
-.PHONY: venv demo test lint bench clean clean-cache
+.PHONY: venv demo test lint bench bench-smoke clean clean-cache
 
 venv: $(STAMP)
 
@@ -29,6 +29,10 @@ bench: $(STAMP)
 	$(PY) -m pip install -q -c requirements/constraints.txt -r requirements/bench.txt
 	$(PY) bench/run.py
 
+bench-smoke: $(STAMP)
+	$(PY) -m pip install -q -c requirements/constraints.txt -r requirements/bench.txt
+	$(PY) -m pytest -q -m bench test/test_bench_smoke.py
+
 lint: $(STAMP)
 	$(PY) -m ruff check drill_twin test launch bench
 
@@ -37,3 +41,4 @@ clean:
 
 clean-cache:
 	find drill_twin -name '*.nbi' -delete -o -name '*.nbc' -delete
+	$(PY) -c "import drill_twin.physics.numba_cache as c; print(c.clear(), 'numba cache directories removed under', c.cache_root())"

@@ -8,7 +8,8 @@ package_name = 'drill_twin'
 
 
 def _requirements(name):
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'requirements', name)
+    # realpath: colcon build --symlink-install runs a symlink to this file from build/
+    path = os.path.join(os.path.dirname(os.path.realpath(__file__)), 'requirements', name)
     with open(path) as handle:
         return [line.split('#')[0].strip() for line in handle
                 if line.split('#')[0].strip()]

@@ -3,6 +3,7 @@
 Sub-commands
 ------------
 ``simulate``   run a configuration, write the time series (npz), print a summary
+``config``     the configuration schema (every key, unit, range), or check a file
 ``params``     print the SI scales and every derived dimensionless group
 ``stability``  characteristic roots / critical speed of the linearised model
 ``demo``       the main job of ``make demo``: the benchmark run(s) with outputs
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import signal
 import sys
 import threading
@@ -24,6 +26,7 @@ import numpy as np
 
 from .console import print_summary
 from .io.mcap_reader import RecordingError
+from .physics.digital_twin import SetpointError
 from .physics.parameters import ParameterError
 from .physics.scenario import Scenario, load_scenario
 from .physics.simulation import Simulation, SimulationDiverged
@@ -61,19 +64,52 @@ def run_scenario(scenario: Scenario, duration=None, progress=None):
     return output_series(scenario, traj), wall, sim
 
 
+#: most recorded rows one ``simulate`` keeps in memory (17 channels: 2.3 GB)
+MAX_RECORDED_ROWS = 20_000_000
+
+
+def _positive(name, value, unit):
+    if not (math.isfinite(value) and value > 0):
+        raise ParameterError(f'{name} {value:g} {unit}: must be a finite number > 0')
+    return value
+
+
 def _duration(args, scenario: Scenario):
+    """The run length in t*, from --duration [s] or --tau [t*] (checked in the unit the
+    user gave), or the configuration's."""
     if args.duration is not None and args.tau is not None:
         raise ParameterError('give --duration (seconds) or --tau (units of t*), not both')
+    if args.duration is not None and not scenario.is_si:
+        raise ParameterError('--duration is in seconds, for SI configurations; this one is '
+                             'dimensionless: use --tau (units of t*)')
     if args.tau is not None:
-        return float(args.tau)
-    if args.duration is not None:
-        return float(args.duration) / scenario.time_unit_s
-    return scenario.duration
+        duration = _positive('--tau', args.tau, 't*')
+    elif args.duration is not None:
+        duration = _positive('--duration', args.duration, 's') / scenario.time_unit_s
+    else:
+        duration = scenario.duration
+    rows = duration / scenario.record_interval
+    if rows > MAX_RECORDED_ROWS:
+        unit = 's' if scenario.is_si else 't*'
+        raise ParameterError(
+            f'{duration * scenario.time_unit_s:g} {unit} recorded every '
+            f'{scenario.record_interval * scenario.time_unit_s:g} {unit} is {rows:.3g} rows '
+            f'(more than {MAX_RECORDED_ROWS:.0e}): raise simulation.record_interval'
+            f'{"_s" if scenario.is_si else ""}')
+    return duration
 
 
 def cmd_simulate(args) -> int:
     scenario = load_scenario(args.config, args.set)
     duration = _duration(args, scenario)
+    if not (math.isfinite(args.stats_from) and args.stats_from >= 0):
+        raise ParameterError(f'--stats-from {args.stats_from:g}: must be >= 0')
+    if args.stats_from >= duration * scenario.time_unit_s:
+        raise ParameterError(f'--stats-from {args.stats_from:g} is not before the end of the '
+                             f'run ({duration * scenario.time_unit_s:g} '
+                             f'{"s" if scenario.is_si else "t*"})')
+    if not (math.isfinite(args.rate_hz) and 0 < args.rate_hz <= 10000):
+        raise ParameterError(f'--rate-hz {args.rate_hz:g}: must be in (0, 10000] Hz')
     progress = _Progress('simulating', sys.stderr.isatty() and not args.summary_json)
     if args.out and args.out.endswith('.mcap'):
         return _simulate_to_mcap(args, scenario, duration, progress)
@@ -118,6 +154,21 @@ def _simulate_to_mcap(args, scenario: Scenario, duration, progress) -> int:
     return 0
 
 
+def cmd_config(args) -> int:
+    """``config schema``: the configuration keys as Markdown; ``config check``: validate a
+    configuration with its overrides and print it resolved (YAML)."""
+    if args.action == 'schema':
+        from .physics.schema import schema_markdown
+        print(schema_markdown(), end='')
+        return 0
+    if not args.config:
+        raise ParameterError('config check needs --config FILE')
+    import yaml
+    scenario = load_scenario(args.config, args.set)
+    print(yaml.safe_dump(scenario.raw, sort_keys=False), end='')
+    return 0
+
+
 def cmd_params(args) -> int:
     scenario = load_scenario(args.config, args.set)
     g = scenario.groups
@@ -158,18 +209,41 @@ def cmd_stability(args) -> int:
         return _chart(args, scenario)
     if args.action == 'discretization':
         return _discretization(args, scenario)
+    t_star = scenario.time_unit_s
     if args.action == 'roots':
         from .stability.linearize import linearize_scenario
+        if not 1 <= args.count <= 100:
+            raise ParameterError(f'--count {args.count}: must be in [1, 100]')
         res = rightmost_roots(linearize_scenario(scenario), count=args.count)
-        out = {'abscissa': res.abscissa, 'roots': [[z.real, z.imag] for z in res.roots],
-               'error_estimate': res.error_estimate, 'order': res.order}
+        if scenario.is_si:   # SI in, SI out: rates in 1/s
+            out = {'abscissa_1_s': res.abscissa / t_star,
+                   'roots_1_s': [[z.real / t_star, z.imag / t_star] for z in res.roots],
+                   'error_estimate_1_s': res.error_estimate / t_star, 'order': res.order}
+        else:
+            out = {'abscissa': res.abscissa, 'roots': [[z.real, z.imag] for z in res.roots],
+                   'error_estimate': res.error_estimate, 'order': res.order}
     else:
-        wc = critical_speed(scenario.model, scenario.groups, args.omega_min, args.omega_max)
-        out = {'critical_omega': wc}
+        lo, hi = _omega_window(args, scenario)
+        wc = critical_speed(scenario.model, scenario.groups, lo * t_star, hi * t_star)
         if scenario.is_si:
-            out['critical_surface_speed_rad_s'] = wc / scenario.time_unit_s if wc else None
+            out = {'critical_surface_speed_rad_s': wc / t_star if wc else None,
+                   'searched_rad_s': [lo, hi]}
+        else:
+            out = {'critical_omega': wc, 'searched': [lo, hi]}
     print_summary(out, args.json, width=28)
     return 0
+
+
+def _omega_window(args, scenario):
+    """--omega-min/--omega-max in the configuration's units (rad/s for SI, 1/t* else)."""
+    unit = 'rad/s' if scenario.is_si else '1/t*'
+    lo = 0.5 if args.omega_min is None else args.omega_min
+    hi = (60.0 if scenario.is_si else 50.0) if args.omega_max is None else args.omega_max
+    for name, v in (('--omega-min', lo), ('--omega-max', hi)):
+        _positive(name, v, unit)
+    if lo >= hi:
+        raise ParameterError(f'--omega-min {lo:g} must be below --omega-max {hi:g} {unit}')
+    return lo, hi
 
 
 def _chart(args, scenario: Scenario) -> int:
@@ -235,10 +309,9 @@ def cmd_demo(args) -> int:
         summary['wall_s'] = wall
         summary['real_time_factor'] = float(series['time'][-1]) / wall
         results[name] = summary
-        print(f'{name}: {summary["samples"]} samples, first angular stick at '
-              f'{summary["first_angular_stick"]} s, stick fraction '
-              f'{summary["stick_fraction"]:.3f}, {summary["real_time_factor"]:.0f}x real time'
-              f' -> {path}')
+        print(f'{name}: {summary["samples"]} samples, {_first_stick(summary)}, stick '
+              f'fraction {summary["stick_fraction"]:.3f}, '
+              f'{summary["real_time_factor"]:.0f}x real time -> {path}')
     # the closed loop the two ROS nodes run: twin (stiff speed drive) + external
     # Soft-Torque controller at 100 Hz, without DDS
     from .physics.closed_loop import run_closed_loop
@@ -260,8 +333,8 @@ def cmd_demo(args) -> int:
         'bit_speed_max': float(loop['bit_angular_speed'].max()),
         'bit_speed_min': float(loop['bit_angular_speed'].min()),
         'wall_s': time.perf_counter() - t0}
-    print('closed_loop_soft_torque (twin + external controller at 100 Hz): first angular '
-          f"stick at {results['closed_loop_soft_torque']['first_angular_stick']} s "
+    print('closed_loop_soft_torque (twin + external controller at 100 Hz): '
+          f"{_first_stick(results['closed_loop_soft_torque'])} "
           f"-> {out / 'closed_loop_soft_torque.npz'}")
     # the benchmark as the twin node publishes it, recorded (replay / resimulate / Foxglove)
     from .io.run_recorder import record_run
@@ -283,6 +356,11 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _first_stick(summary) -> str:
+    t = summary.get('first_angular_stick')
+    return 'no angular stick' if t is None else f'first angular stick at {t:.2f} s'
+
+
 def cmd_reproduce(args) -> int:
     from .reproduce import reproduce
     bar = _Progress('figures', sys.stderr.isatty() or args.progress)
@@ -296,9 +374,16 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block): ``drill-twin simulate: error: ...``"""
+
+    def error(self, message):
+        self.exit(2, f'{self.prog}: error: {" ".join(message.split())} (see {self.prog} -h)\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog='drill-twin', description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = _Parser(prog='drill-twin', description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest='command', required=True)
 
     def common(sp):
@@ -319,6 +404,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument('--stats-from', type=float, default=0.0,
                    help='statistics window start, in the configuration time unit')
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser('config', help='the configuration schema, or check a configuration')
+    s.add_argument('action', choices=['schema', 'check'])
+    s.add_argument('--config', help='check: YAML file, or a name in config/')
+    s.add_argument('--set', action='append', default=[], metavar='KEY=VALUE')
+    s.set_defaults(func=cmd_config)
 
     s = sub.add_parser('params', help='print derived scales and dimensionless groups')
     common(s)
@@ -342,8 +433,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help='real part above which a root counts as unstable [1/t*]')
     s.add_argument('--json', action='store_true')
     s.add_argument('--count', type=int, default=6, help='number of rightmost roots')
-    s.add_argument('--omega-min', type=float, default=0.5)
-    s.add_argument('--omega-max', type=float, default=50.0)
+    s.add_argument('--omega-min', type=float, default=None,
+                   help='critical-speed search window: rad/s for SI configurations '
+                   '(default 0.5), 1/t* for dimensionless ones (default 0.5)')
+    s.add_argument('--omega-max', type=float, default=None,
+                   help='rad/s for SI (default 60), 1/t* for dimensionless (default 50)')
     s.set_defaults(func=cmd_stability)
 
     s = sub.add_parser('demo', help='the make-demo job: benchmark without Soft-Torque, with '
@@ -368,14 +462,19 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt  # SIGTERM: unwind like Ctrl-C, so recordings get closed
 
 
+#: what bad input raises: one line, exit code 2.  Anything else is a bug: its traceback
+#: is shown and the exit code is 1.
+USER_ERRORS = (ParameterError, SetpointError, SimulationDiverged, RecordingError, OSError)
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _terminate)
     try:
         return args.func(args)
-    except (ParameterError, SimulationDiverged, RecordingError, ValueError, OSError) as exc:
-        print(f'drill-twin: error: {exc}', file=sys.stderr)
+    except USER_ERRORS as exc:
+        print(f'drill-twin: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print('drill-twin: interrupted', file=sys.stderr)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from .console import print_summary
 from .io.mcap_reader import open_recording, recover
+from .physics.parameters import ParameterError
 
 __all__ = ['add_parsers']
 
@@ -13,7 +14,7 @@ __all__ = ['add_parsers']
 def cmd_mcap(args) -> int:
     if args.action == 'recover':
         if not args.output:
-            raise ValueError('mcap recover needs BROKEN.mcap FIXED.mcap')
+            raise ParameterError('mcap recover needs BROKEN.mcap FIXED.mcap')
         counts = recover(args.file, args.output)
         counts['output'] = args.output
         print_summary(counts, args.json, width=24)
@@ -22,7 +23,7 @@ def cmd_mcap(args) -> int:
     if args.action == 'info':
         run = rec.run
         out = {'library': rec.library, 'messages': sum(rec.message_counts.values()),
-               'topics': {t: f'{ty} x {rec.message_counts.get(t, 0)}'
+               'topics': {t: f'{ty}, {rec.message_counts.get(t, 0)} messages'
                           for t, ty in sorted(rec.topics.items())},
                'time_base': run.get('time_base', 'unknown (not a drill_twin file)'),
                'model': run.get('model'), 'package_version': run.get('package_version'),
@@ -30,13 +31,13 @@ def cmd_mcap(args) -> int:
         print_summary(out, args.json, width=24)
     elif args.action == 'export':
         if not args.csv:
-            raise ValueError('mcap export needs --csv DIR')
+            raise ParameterError('mcap export needs --csv DIR')
         from .io.export import export_csv
         paths = export_csv(rec, args.csv, args.topics)
         print_summary({t: str(p) for t, p in paths.items()}, args.json, width=24)
     elif args.action == 'plot':
         if not args.out:
-            raise ValueError('mcap plot needs --out FILE.png')
+            raise ParameterError('mcap plot needs --out FILE.png')
         from .io.export import topic_series
         from .plotting import plot_recording
         ns = rec.run.get('namespace', '/').rstrip('/')
@@ -56,7 +57,7 @@ def cmd_mcap(args) -> int:
                 if len(s[fld]) == len(series['time_s']):
                     series[key] = s[fld]
         if 'time_s' not in series:
-            raise ValueError(f'{args.file} has none of the twin measurement topics')
+            raise ParameterError(f'{args.file} has none of the twin measurement topics')
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         plot_recording(series, args.out, title=f'{Path(args.file).name}: '
                        f'{rec.run.get("model", "")}')
@@ -80,6 +81,8 @@ def cmd_replay(args) -> int:
                 print(f"{topic:>32}: {v['messages']:7d} messages, max |difference| "
                       f"{v['max_abs_difference']:.3g}")
         return 0 if worst <= args.tolerance else 1
+    from .io.mcap_reader import check_decodable
+    check_decodable(rec, args.topics)  # nothing is published from a file that does not decode
     import rclpy
 
     from .ros.player import Player

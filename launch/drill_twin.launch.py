@@ -1,12 +1,15 @@
 """Twin + Soft-Torque controller, the run recorded to MCAP by the twin itself.
 
-``ros2 launch drill_twin drill_twin.launch.py [record_path:=run.mcap]``;
+``ros2 launch drill_twin drill_twin.launch.py [record_path:=run.mcap] [config:=NAME]``.
+By default the run is recorded to ``$ROS_HOME/drill_twin/drill_twin_<UTC time>.mcap``
+(``~/.ros/drill_twin/...``, where ROS keeps its logs: not wherever the user stands);
 ``record_path:=''`` switches recording off.  The twin's own recorder is used
 (simulated log time, set-points at the time they were applied) so that
 ``drill-twin replay run.mcap --resimulate`` reproduces the run; to record other
 topics or another graph, run ``ros2 run drill_twin mcap_recorder``.
 """
 import datetime
+import os
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
@@ -14,14 +17,23 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 
-def generate_launch_description():
+def default_record_path() -> str:
+    """``$ROS_HOME/drill_twin/drill_twin_<UTC time>.mcap`` (ROS_HOME defaults to ~/.ros)."""
+    home = os.environ.get('ROS_HOME') or os.path.join(os.path.expanduser('~'), '.ros')
     stamp = datetime.datetime.now(datetime.UTC).strftime('%Y%m%d_%H%M%S')
+    return os.path.join(home, 'drill_twin', f'drill_twin_{stamp}.mcap')
+
+
+def generate_launch_description():
+    config = LaunchConfiguration('config')
     return LaunchDescription([
-        DeclareLaunchArgument('record_path', default_value=f'drill_twin_{stamp}.mcap',
+        DeclareLaunchArgument('record_path', default_value=default_record_path(),
                               description="MCAP file of the run ('' = no recording)"),
+        DeclareLaunchArgument('config', default_value='benchmark_fem',
+                              description='configuration name or file (units: si)'),
         Node(package='drill_twin', executable='twin_node', name='drill_twin',
-             parameters=[{'config': 'benchmark_fem', 'real_time_factor': 1.0,
+             parameters=[{'config': config, 'real_time_factor': 1.0,
                           'record_path': LaunchConfiguration('record_path')}]),
         Node(package='drill_twin', executable='soft_torque_node', name='soft_torque',
-             parameters=[{'config': 'benchmark_fem', 'control_rate_hz': 100.0}]),
+             parameters=[{'config': config, 'control_rate_hz': 100.0}]),
     ])

@@ -200,6 +200,9 @@ def test_a_signal_during_construction_exits_cleanly(tmp_path):
     ('twin_node', 'record_chunk_period_s:=0.0', 'record_chunk_period_s'),
     ('twin_node', 'overrides:=5', 'overrides'),
     ('twin_node', 'config:=no_such_config', 'no_such_config'),
+    ('twin_node', "overrides:=['nonexistent.key=1']", 'unknown key nonexistent'),
+    ('twin_node', "overrides:=['model.elements=2.5']", 'an integer'),
+    ('twin_node', "overrides:=['model.elements']", 'not KEY=VALUE'),
     ('soft_torque_node', 'control_rate_hz:=-1.0', 'control_rate_hz'),
     ('soft_torque_node', 'config:=rgd_stick_slip', 'SI'),
 ])

@@ -167,3 +167,25 @@ def test_advisor_worker_answers_like_the_stability_module_and_never_blocks():
         advisor.close()
     assert not advisor.alive and advisor._proc.poll() is not None
 
+
+
+def test_numba_cache_is_keyed_by_the_jitted_sources(tmp_path):
+    """An edit of any physics file that uses numba gives a new cache directory (stale machine
+    code cannot run); an edit of a file without jitted code keeps the warm cache."""
+    import shutil
+
+    from drill_twin.physics import numba_cache
+    src = tmp_path / 'physics'
+    shutil.copytree(numba_cache.PHYSICS_DIR, src, ignore=shutil.ignore_patterns('__pycache__'))
+    key = numba_cache.source_key(src)
+    assert key == numba_cache.source_key()
+    law = src / 'interface_law.py'
+    law.write_text(law.read_text().replace('n_b * depth_of_cut', 'n_b * depth_of_cut * 1.0'))
+    assert numba_cache.source_key(src) != key
+    law.write_text((numba_cache.PHYSICS_DIR / 'interface_law.py').read_text())
+    assert numba_cache.source_key(src) == key
+    stats = src / 'statistics.py'
+    stats.write_text(stats.read_text() + '\n# a comment\n')
+    assert numba_cache.source_key(src) == key
+    import numba
+    assert numba.config.CACHE_DIR == str(numba_cache.cache_dir())

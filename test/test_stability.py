@@ -143,3 +143,22 @@ def test_pontryagin_count_agrees_with_the_spectral_count():
                 assert unstable_root_count(model, g) == int(np.sum(res.roots.real > 0))
                 checked += 1
     assert checked > 150
+
+
+@pytest.mark.parametrize('omega, upsilon', [(5.0, 0.05), (10.0, 0.5), (30.0, 2.0)])
+def test_undamped_rgd_torsional_growth_scales_with_upsilon_over_psi_squared(omega, upsilon):
+    """Reference: the large-ψ asymptote derived in docs/stability.md,
+    Re λ = α_o cot(τ_1,0/2)/(4 n_b ψ²) (≈ υ_o/(4πψ²)); at ψ = 200 the torsional root of the
+    collocation agrees to 1 %."""
+    import math
+
+    from drill_twin.physics.models import rgd
+    psi, n_b, n_b_lam = 200.0, 4, 4.0
+    g = load_scenario('rgd_stick_slip').groups.replace(
+        psi=psi, n_b=n_b, lam=n_b_lam / n_b, omega_o=omega,
+        W_o=n_b_lam + 2 * math.pi * upsilon / omega)
+    roots = rightmost_roots(rgd(psi), g, count=12).roots
+    torsional = min(roots, key=lambda z: abs(abs(z.imag) - 1.0))
+    tau, alpha = 2 * math.pi / (n_b * omega), upsilon / omega
+    assert torsional.real == pytest.approx(alpha / math.tan(tau / 2) / (4 * n_b * psi ** 2),
+                                           rel=0.01)

@@ -180,3 +180,23 @@ def test_unstable_time_step_is_rejected_and_auto_is_stable():
     sim.perturb(where='smooth', **sc.initial_perturbation)
     sim.run(2.0, 0.1)
     assert sim.event_count < 50
+
+
+def test_forward_euler_simulates_the_damping_theta_minus_h():
+    """|1 + hμ|² = 1 + hω²(h − ϑ) exactly for stiffness-proportional damping (docs/physics.md),
+    checked on the benchmark's torsional chain (numpy eigenvalues and eigen-frequencies,
+    independent of the kernel): at the thesis's h = ϑ_φ = 1e-4 every torsional mode is
+    undamped under Euler."""
+    sc = load_scenario('benchmark_fem')
+    tors = fem_drill_string(sc.system, theta_phi=1e-4).torsional
+    M, K = tors.dense('mass'), tors.dense('stiffness')
+    omega2 = np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real)
+    n = tors.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)],
+                  [-np.linalg.solve(M, K), -np.linalg.solve(M, tors.dense('damping'))]])
+    mu = np.linalg.eigvals(A)
+    for h in (1e-4, 5e-5):
+        factor = np.sort(np.abs(1 + h * mu) ** 2)
+        expected = np.sort(np.repeat(1 + h * omega2 * (h - 1e-4), 2))
+        assert np.allclose(factor, expected, rtol=0, atol=1e-10)
+    assert np.allclose(np.abs(1 + 1e-4 * mu) ** 2, 1.0, atol=1e-10)

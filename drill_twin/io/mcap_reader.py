@@ -33,9 +33,11 @@ from .cdr import decoder_for
 from .mcap_writer import PROFILE
 
 __all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
-           'RUN_METADATA']
+           'check_decodable', 'RUN_METADATA']
 
 _MAGIC = b'\x89MCAP'
+#: magic + header record + footer record + magic: no complete MCAP file is shorter
+_SMALLEST = 8 + 9 + 8 + 9 + 20 + 8
 #: name of the MCAP metadata record with the run description
 RUN_METADATA = 'drill_twin'
 
@@ -138,6 +140,26 @@ def _record_at(f, offset: int, opcode: int, what: str) -> bytes:
     return body
 
 
+def _check_summary_crc(path):
+    """The footer's CRC of the summary section (schemas, channels, statistics, indexes)."""
+    with open(path, 'rb') as f:
+        footer_at = f.seek(0, 2) - 8 - 29
+        f.seek(footer_at)
+        op, length, start, offsets, crc = struct.unpack('<BQQQI', f.read(29))
+        if op != Opcode.FOOTER or length != 20:
+            raise RecordingError('no footer record before the closing magic')
+        if start == 0 or crc == 0:
+            return  # no summary, or a writer that does not compute the CRC
+        if not 0 < start <= footer_at:
+            raise RecordingError('the footer points outside the file')
+        f.seek(start)
+        summary = f.read(footer_at - start)
+    value = zlib.crc32(struct.pack('<BQQQ', Opcode.FOOTER, 20, start, offsets),
+                       zlib.crc32(summary))
+    if value != crc:
+        raise RecordingError('the summary section does not match its CRC (damaged)')
+
+
 def _chunk_messages(data: bytes) -> dict:
     """``{channel: [(log_time, offset), ...]}`` of the Message records in chunk data."""
     found: dict[int, list] = {}
@@ -211,7 +233,7 @@ def open_recording(path) -> Recording:
         tail = f.read(8)
     if head[:5] != _MAGIC:
         raise RecordingError(f'{path}: not an MCAP file')
-    if tail[:5] != _MAGIC:
+    if tail[:5] != _MAGIC or path.stat().st_size < _SMALLEST:
         raise RecordingError(f'{path}: incomplete MCAP file (no footer: its recorder was '
                              f'killed or is still writing); run `drill-twin mcap recover '
                              f'{path} FIXED.mcap`')
@@ -223,6 +245,7 @@ def open_recording(path) -> Recording:
             metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()} \
                 if summary is not None else {}
         if summary is not None:
+            _check_summary_crc(path)
             check_indexes(path, summary)
     except RecordingError as exc:
         raise RecordingError(f'{path}: corrupt MCAP index ({exc}); run `drill-twin mcap '
@@ -242,7 +265,12 @@ def open_recording(path) -> Recording:
     for cid, ch in summary.channels.items():
         schema = summary.schemas.get(ch.schema_id)
         _check_channel(path, ch, schema)
-        channels[cid] = ChannelInfo(ch.topic, schema.name, schema.data.decode(),
+        try:
+            text = schema.data.decode()
+        except UnicodeDecodeError:
+            raise RecordingError(f'{path}: the schema of {ch.topic} ({schema.name}) is not '
+                                 'text (damaged)') from None
+        channels[cid] = ChannelInfo(ch.topic, schema.name, text,
                                     ch.metadata.get('offered_qos_profiles', ''))
     counts = {}
     if summary.statistics is not None:
@@ -257,6 +285,27 @@ def open_recording(path) -> Recording:
                 except json.JSONDecodeError:
                     raise RecordingError(f'{path}: run metadata {key!r} is not JSON') from None
     return Recording(path, header.library, channels, metadata, counts)
+
+
+def check_decodable(recording: Recording, topics=None) -> dict:
+    """Decode every message of ``topics`` (default all); raise :class:`RecordingError`
+    naming each topic whose messages do not decode as its schema, with their count.
+    Returns the message count per topic."""
+    counts: Counter = Counter()
+    bad: Counter = Counter()
+    for topic, _, data in recording.messages(topics):
+        counts[topic] += 1
+        try:
+            recording.decoder(topic)(data)
+        except RecordingError:
+            raise
+        except Exception:  # noqa: BLE001 - CDR that does not match its schema
+            bad[topic] += 1
+    if bad:
+        detail = '; '.join(f'{t}: {n} of {counts[t]} messages do not decode as '
+                           f'{recording.topics[t]}' for t, n in sorted(bad.items()))
+        raise RecordingError(f'{recording.path}: {detail}; not replayed')
+    return dict(counts)
 
 
 def recover(broken, fixed) -> dict:

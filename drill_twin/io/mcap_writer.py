@@ -61,6 +61,7 @@ from mcap.records import (
     SummaryOffset,
 )
 
+from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .cdr import encoder_for
 from .msg_definitions import normalize_type, schema_text
@@ -91,7 +92,7 @@ def _compressor(name: str):
         return 'lz4', lz4.frame.compress
     if name == 'none':
         return '', bytes
-    raise ValueError(f"compression must be 'zstd', 'lz4' or 'none', got {name!r}")
+    raise ParameterError(f"compression must be 'zstd', 'lz4' or 'none', got {name!r}")
 
 
 class _OpenChunk:
@@ -137,7 +138,7 @@ class McapRecorder:
     def __init__(self, path, chunk_period_s: float = 0.25, compression: str = 'zstd',
                  library: str = 'drill_twin'):
         if not chunk_period_s > 0:
-            raise ValueError(f'chunk_period_s must be > 0, got {chunk_period_s}')
+            raise ParameterError(f'chunk_period_s must be > 0, got {chunk_period_s}')
         self.path = Path(path)
         self.chunk_period_s = float(chunk_period_s)
         self._compression, self._compress = _compressor(compression)

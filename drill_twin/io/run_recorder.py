@@ -29,6 +29,7 @@ import subprocess
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 
+from ..physics.parameters import ParameterError
 from ..topics import (
     BY_NAME,
     clock_fields,
@@ -176,7 +177,7 @@ def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config
     closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
     from ..physics.digital_twin import DigitalTwin
     if not (rate_hz > 0 and duration_s > 0):
-        raise ValueError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
+        raise ParameterError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
     twin = DigitalTwin(scenario)
     rec = TwinRecorder(path, twin, config, overrides, chunk_period_s=chunk_period_s,
                        settings={'publish_rate_hz': rate_hz, 'source': 'drill-twin simulate'})

@@ -4,8 +4,9 @@ numba's on-disk cache (``cache=True``) is keyed by the timestamp of the file of
 the function it compiles, not by the files that function calls: after an edit
 of a jitted helper in another module the old machine code keeps running.  To
 make stale code impossible, the cache directory is named after a hash of every
-source file of :mod:`drill_twin.physics`: any edit of any of them gives a new,
-empty directory (and a fresh compile), whatever the timestamps say.
+source file of :mod:`drill_twin.physics` that uses numba (the jitted kernels and
+every helper they call): any edit of any of them gives a new, empty directory
+(and a fresh compile), whatever the timestamps say.
 
 The root is ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/drill_twin/numba``
 (``~/.cache/drill_twin/numba``); ``make clean-cache`` removes it.
@@ -14,17 +15,22 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
+import shutil
 from pathlib import Path
 
-__all__ = ['source_key', 'cache_root', 'cache_dir', 'configure']
+__all__ = ['source_key', 'cache_root', 'cache_dir', 'configure', 'clear']
 
 PHYSICS_DIR = Path(__file__).resolve().parent
 
 
 def source_key(folder: Path = PHYSICS_DIR) -> str:
-    """16 hex digits of SHA-256 over the names and contents of ``folder/*.py``."""
+    """16 hex digits of SHA-256 over the names and contents of the ``folder/*.py`` files
+    that mention numba."""
     digest = hashlib.sha256()
     for path in sorted(Path(folder).glob('*.py')):
+        if b'numba' not in path.read_bytes():
+            continue
         digest.update(path.name.encode())
         digest.update(b'\0')
         digest.update(path.read_bytes())
@@ -51,3 +57,16 @@ def configure() -> Path:
     path = cache_dir()
     numba.config.CACHE_DIR = str(path)
     return path
+
+
+def clear() -> int:
+    """Remove the cache directories this module made under :func:`cache_root` (names of 16
+    hex digits; nothing else there is touched).  Returns how many."""
+    root = cache_root()
+    removed = 0
+    if root.is_dir():
+        for entry in root.iterdir():
+            if entry.is_dir() and re.fullmatch(r'[0-9a-f]{16}', entry.name):
+                shutil.rmtree(entry, ignore_errors=True)
+                removed += 1
+    return removed

@@ -13,12 +13,15 @@ Two kinds of configuration files live in ``config/``:
     delay 1, κ_d = a - b, n_b ψ = b) and ``kappa_d``; times are in t*.
 
 Overrides use dotted keys (``groups.beta=1.3``, ``model.elements=128``).
+Every key is checked against :mod:`drill_twin.physics.schema` (types, units,
+ranges, required keys, unknown keys with the nearest valid name); every error
+is one line naming the file (or ``--set``), the key, the value and the rule.
 """
 from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
@@ -36,9 +39,10 @@ from .models import (
     rgd_k,
 )
 from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales
+from .schema import ConfigError, validate
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
-           'CONFIG_DIR']
+           'CONFIG_DIR', 'ConfigError', 'resolve_config', 'read_config']
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / 'config'
 
@@ -90,71 +94,72 @@ class Scenario:
         return self.scales.time_s if self.scales else 1.0
 
 
-def _number(section: dict, key: str, default=None, where='') -> float:
-    if key not in section:
-        if default is None:
-            raise ParameterError(f'missing parameter {where}{key}')
-        return default
-    value = section[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError(f'parameter {where}{key} must be a number, got {value!r}')
-    if not math.isfinite(value):
-        raise ParameterError(f'parameter {where}{key} must be finite, got {value!r}')
-    return float(value)
+def _set_key(out: dict, key: str, value, label: str):
+    node = out
+    parts = key.split('.')
+    if not key or any(not part for part in parts):
+        raise ConfigError(f'{label}: {key!r} is not a dotted key (e.g. model.elements)')
+    for i, part in enumerate(parts[:-1]):
+        node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f'{label}: {".".join(parts[:i + 1])} is not a section')
+    node[parts[-1]] = value
 
 
-def apply_overrides(raw: dict, overrides) -> dict:
-    """Return a copy of ``raw`` with ``KEY=VALUE`` strings (dotted keys) applied."""
-    out = copy.deepcopy(raw)
+def apply_overrides(raw: dict, overrides, origin: dict | None = None,
+                    label: str = '--set') -> dict:
+    """Return a copy of ``raw`` with ``KEY=VALUE`` strings (dotted keys) applied; the
+    values are YAML.  ``origin`` (if given) records ``{key: '--set KEY=VALUE'}`` for error
+    messages."""
+    out = copy.deepcopy(raw) if isinstance(raw, dict) else raw
     for item in overrides or ():
-        if '=' not in item:
-            raise ParameterError(f'override {item!r} is not KEY=VALUE')
+        if not isinstance(item, str) or '=' not in item:
+            raise ConfigError(f'{label} {item!r}: not KEY=VALUE (e.g. model.elements=128)')
         key, value = item.split('=', 1)
-        node = out
-        parts = key.strip().split('.')
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ParameterError(f'override {key!r}: {part} is not a section')
+        key = key.strip()
+        where = f'{label} {item}'
         try:
-            node[parts[-1]] = yaml.safe_load(value)
+            parsed = yaml.safe_load(value)
         except yaml.YAMLError as exc:
-            raise ParameterError(f'override {item!r}: cannot parse value: {exc}') from exc
+            raise ConfigError(f'{where}: the value is not valid YAML '
+                              f'({_yaml_problem(exc)})') from None
+        if not isinstance(out, dict):
+            raise ConfigError(f'{where}: the configuration is not a mapping')
+        _set_key(out, key, parsed, where)
+        if origin is not None:
+            origin[key] = where
     return out
 
 
-def _groups_dimensionless(g: dict, model_type: str):
-    where = 'groups.'
+def _groups_from(g: dict, where: str):
+    """BitRockGroups and κ_d from a validated ``groups`` section (either of its two forms)."""
     if 'a' in g or 'b' in g:
-        a = _number(g, 'a', where=where)
-        b = _number(g, 'b', where=where)
-        n_b = int(_number(g, 'n_b', 1.0, where))
-        if b <= 0:
-            raise ParameterError('groups.b must be > 0')
-        kappa_d = a - b
-        omega_o = 2.0 * math.pi / n_b  # delay τ_1,0 = 1
-        lam = _number(g, 'lambda', 0.0, where)
-        groups = BitRockGroups(n_b=n_b, lam=lam, beta=_number(g, 'beta', 0.0, where),
-                               W_o=_number(g, 'W_o', n_b * (lam + 1.0), where),
-                               omega_o=omega_o, psi=b / n_b)
-        return groups, kappa_d
-    n_b = _number(g, 'n_b', where=where)
-    if n_b < 1:
-        raise ParameterError(f'groups.n_b must be >= 1 blade, got {n_b:g}')
-    if 'n_b_lambda' in g:
-        lam = _number(g, 'n_b_lambda', where=where) / n_b
-    else:
-        lam = _number(g, 'lambda', where=where)
-    groups = BitRockGroups(n_b=n_b, lam=lam, beta=_number(g, 'beta', where=where),
-                           W_o=_number(g, 'W_o', where=where),
-                           omega_o=_number(g, 'omega_o', where=where),
-                           psi=_number(g, 'psi', where=where))
-    kappa_d = _number(g, 'kappa_d', 0.0, where) if 'kappa_d' in g else None
-    return groups, kappa_d
+        extra = sorted(set(g) & {'psi', 'omega_o', 'n_b_lambda', 'kappa_d'})
+        if 'a' not in g or 'b' not in g:
+            raise ConfigError(f'{where}: groups needs both a and b (the axial-chain plane)')
+        if extra:
+            raise ConfigError(f'{where}: groups.{extra[0]} does not go with groups.a/b (the '
+                              'axial-chain plane fixes the delay to 1, ω_o = 2π/n_b, '
+                              'κ_d = a - b, n_b ψ = b)')
+        n_b = g.get('n_b', 1)
+        lam = g.get('lambda', 0.0)
+        groups = BitRockGroups(n_b=n_b, lam=lam, beta=g.get('beta', 0.0),
+                               W_o=g.get('W_o', n_b * (lam + 1.0)),
+                               omega_o=2.0 * math.pi / n_b, psi=g['b'] / n_b)
+        return groups, g['a'] - g['b']
+    if ('lambda' in g) == ('n_b_lambda' in g):
+        raise ConfigError(f'{where}: groups needs exactly one of lambda and n_b_lambda')
+    for key in ('psi', 'n_b', 'beta', 'W_o', 'omega_o'):
+        if key not in g:
+            raise ConfigError(f'{where}: missing required key groups.{key}')
+    lam = g['lambda'] if 'lambda' in g else g['n_b_lambda'] / g['n_b']
+    groups = BitRockGroups(n_b=g['n_b'], lam=lam, beta=g['beta'], W_o=g['W_o'],
+                           omega_o=g['omega_o'], psi=g['psi'])
+    return groups, g.get('kappa_d')
 
 
 def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
-    kind = m.get('type')
+    kind = m['type']
     if kind == 'rgd':
         return rgd(groups.psi)
     if kind == 'rgd_axial':
@@ -164,17 +169,15 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
         if kappa_d is None:
             raise ParameterError(f'model {kind} needs groups.kappa_d (or a, b)')
         if kappa_d <= 0:
-            raise ParameterError(f'kappa_d must be > 0, got {kappa_d!r}')
+            raise ParameterError(f'model {kind} needs kappa_d > 0, got {kappa_d:g}')
     if kind == 'rgd_k':
         return rgd_k(groups.psi, kappa_d)
     if kind == 'axial_chain':
-        n = int(_number(m, 'n', where='model.'))
-        eps = m.get('eps')
-        return axial_chain(n, kappa_d, groups.psi, eps=eps, eps2=m.get('eps2'),
-                           top_damping=_number(m, 'damping', 0.0, 'model.'))
+        return axial_chain(m['n'], kappa_d, groups.psi, eps=m.get('eps'), eps2=m.get('eps2'),
+                           top_damping=m.get('damping', 0.0))
     if kind == 'coupled_chain':
-        return coupled_chain(int(_number(m, 'n', where='model.')), kappa_d, groups.psi,
-                             axial_top=m.get('axial_top', 'velocity'))
+        return coupled_chain(m['n'], kappa_d, groups.psi,
+                             axial_top=m.get('axial_top') or 'velocity')
     if kind in ('lumped_I', 'lumped_II', 'lumped_III', 'semi_infinite'):
         z = _impedances(m, system)
         variant = 'I' if kind == 'semi_infinite' else kind.split('_')[1]
@@ -185,100 +188,159 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
         if kind == 'semi_infinite':  # massless limit of lumped model I (§5.2)
             model.name = 'semi_infinite'
         return model
-    if kind == 'fem':
-        if system is None:
-            raise ParameterError('model fem needs units: si and a drill_string section')
-        return fem_drill_string(
-            system, elements=int(_number(m, 'elements', 58.0, 'model.')),
-            bha_elements=int(_number(m, 'bha_elements', 10.0, 'model.')),
-            theta_u=_number(m, 'theta_u', 5e-4, 'model.'),
-            theta_phi=_number(m, 'theta_phi', 1e-4, 'model.'),
-            eta_u=_number(m, 'eta_u', 0.0, 'model.'), eta_phi=_number(m, 'eta_phi', 0.0, 'model.'),
-            top_drive=m.get('top_drive', 'speed'), axial_top=m.get('axial_top', 'hook_load'))
-    raise ParameterError(f'unknown model.type {kind!r} (rgd, rgd_axial, rgd_k, axial_chain, '
-                         'coupled_chain, lumped_I, lumped_II, lumped_III, semi_infinite, '
-                         'fem)')
+    if system is None:
+        raise ParameterError('model fem needs units: si and a drill_string section')
+    if m['bha_elements'] >= m['elements']:
+        raise ParameterError(f"model.bha_elements = {m['bha_elements']} must be below "
+                             f"model.elements = {m['elements']}")
+    return fem_drill_string(
+        system, elements=m['elements'], bha_elements=m['bha_elements'],
+        theta_u=m['theta_u'], theta_phi=m['theta_phi'], eta_u=m['eta_u'],
+        eta_phi=m['eta_phi'], top_drive=m['top_drive'],
+        axial_top=m.get('axial_top') or 'hook_load')
 
 
 def _impedances(m: dict, system) -> dict:
     """Pipe radiation impedances: derived for SI configs, given otherwise."""
     if system is not None:
         return pipe_impedances(system)
-    out = {'axial': _number(m, 'axial_impedance', where='model.'),
-           'torsional': _number(m, 'torsional_impedance', where='model.')}
-    for key in ('axial_round_trip', 'torsional_round_trip'):
+    out = {}
+    for key in ('axial_impedance', 'torsional_impedance', 'axial_round_trip',
+                'torsional_round_trip'):
         if key in m:
-            out[key] = _number(m, key, where='model.')
+            out[key.replace('_impedance', '')] = m[key]
+    for key in ('axial', 'torsional'):
+        if key not in out:
+            raise ParameterError(f'model {m["type"]} needs model.{key}_impedance '
+                                 '(dimensionless configurations)')
     return out
 
 
-def scenario_from_dict(raw: dict) -> Scenario:
-    """Validate a configuration mapping and build the :class:`Scenario`."""
-    if not isinstance(raw, dict):
-        raise ParameterError('configuration must be a mapping')
-    units = raw.get('units')
-    model_section = raw.get('model') or {}
-    if not isinstance(model_section, dict):
-        raise ParameterError('model must be a mapping')
-    sim = raw.get('simulation') or {}
-    system = scales = None
+def _fill_defaults(cfg: dict, units: str):
+    """Defaults of the simulation section (the resolved configuration is complete)."""
+    sim = cfg.setdefault('simulation', {})
     if units == 'si':
-        ds = raw.get('drill_string') or {}
-        known = {f.name for f in fields(DrillStringSI)} - {'extra'}
-        unknown = set(ds) - known
-        if unknown:
-            raise ParameterError(f'unknown drill_string parameters: {sorted(unknown)}')
-        system = DrillStringSI(**ds)
-        op = raw.get('operating_point') or {}
-        groups = system.groups(_number(op, 'surface_speed_rad_s', where='operating_point.'),
-                               _number(op, 'weight_on_bit_N', where='operating_point.'))
-        scales = system.scales()
-        kappa_d = system.kappa_d
-        t_unit = scales.time_s
-        dur = _number(sim, 'duration_s', 75.0, 'simulation.') / t_unit
-        rec = _number(sim, 'record_interval_s', 0.01, 'simulation.') / t_unit
-    elif units == 'dimensionless':
-        groups, kappa_d = _groups_dimensionless(raw.get('groups') or {}, model_section.get('type'))
-        dur = _number(sim, 'duration', 100.0, 'simulation.')
-        rec = _number(sim, 'record_interval', 0.01, 'simulation.')
+        sim.setdefault('duration_s', 75.0)
+        sim.setdefault('record_interval_s', 0.01)
     else:
-        raise ParameterError(f"units must be 'si' or 'dimensionless', got {units!r}")
-    model = _build_model(model_section, groups, kappa_d, system)
-    if sim.get('time_step', 'auto') == 'auto':  # 80 % of the RK4 limit, at most 5e-3
-        dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.tau_10)
-    else:
-        dt = _number(sim, 'time_step', where='simulation.')
-    pert = sim.get('initial_perturbation') or {}
-    if not isinstance(pert, dict):
-        raise ParameterError('simulation.initial_perturbation must map u, v, phi, omega')
-    pert = {k: _number(pert, k, 0.0, 'simulation.initial_perturbation.')
-            for k in ('u', 'v', 'phi', 'omega')}
-    where = sim.get('perturb', 'bit')
-    if where not in ('bit', 'all', 'smooth'):
-        raise ParameterError("simulation.perturb must be 'bit', 'all' or 'smooth'")
-    return Scenario(model=model, groups=groups, time_step=dt, duration=dur,
-                    record_interval=max(rec, dt), initial_perturbation=pert,
-                    perturb_where=where, scales=scales, system=system, kappa_d=kappa_d,
-                    raw=raw)
+        sim.setdefault('duration', 100.0)
+        sim.setdefault('record_interval', 0.01)
+    sim.setdefault('time_step', 'auto')
+    sim.setdefault('perturb', 'bit')
+    pert = sim.setdefault('initial_perturbation', {})
+    for key in ('u', 'v', 'phi', 'omega'):
+        pert.setdefault(key, 0.0)
+    if cfg['model']['type'] == 'fem':
+        m = cfg['model']
+        for key, value in (('elements', 58), ('bha_elements', 10), ('theta_u', 5e-4),
+                           ('theta_phi', 1e-4), ('eta_u', 0.0), ('eta_phi', 0.0),
+                           ('top_drive', 'speed')):
+            m.setdefault(key, value)
 
 
-def load_scenario(path, overrides=()) -> Scenario:
-    """Load a YAML configuration (a path, or a name of a file in ``config/``)."""
-    path = Path(path)
-    if not path.exists():
-        for folder in config_dirs():
-            for candidate in (folder / path, folder / f'{path}.yaml'):
-                if candidate.exists():
-                    path = candidate
-                    break
-            if path.exists():
-                break
+def _check_step(dt: float, model, groups):
+    """A configured step must resolve the delay and lie in the RK4 stability region."""
+    if dt > 0.25 * groups.tau_10:
+        raise ParameterError(f'simulation.time_step = {dt:g} t*: too large for the delay '
+                             f'tau_10 = {groups.tau_10:.4g} t* (at most tau_10/4 = '
+                             f'{0.25 * groups.tau_10:.4g} t*)')
+    if model.name == 'semi_infinite':
+        return
+    limit = max_stable_step(model, cap=max(dt, 5e-3))
+    if dt > limit:
+        raise ParameterError(f'simulation.time_step = {dt:g} t*: outside the RK4 stability '
+                             f'region of model {model.name} (largest stable step '
+                             f'{limit:.3g} t*; or use time_step: auto)')
+
+
+def scenario_from_dict(raw: dict, source: str = 'configuration',
+                       origin: dict | None = None) -> Scenario:
+    """Validate a configuration mapping (:mod:`~drill_twin.physics.schema`) and build the
+    :class:`Scenario`.  Errors are :class:`ConfigError`, one line, prefixed by ``source``."""
+    cfg = validate(raw, source, origin)
+    units = cfg['units']
+    _fill_defaults(cfg, units)
+    sim = cfg['simulation']
     try:
-        text = path.read_text()
+        system = scales = None
+        if units == 'si':
+            system = DrillStringSI(**cfg['drill_string'])
+            op = cfg['operating_point']
+            groups = system.groups(op['surface_speed_rad_s'], op['weight_on_bit_N'])
+            scales = system.scales()
+            kappa_d = system.kappa_d
+            dur = sim['duration_s'] / scales.time_s
+            rec = sim['record_interval_s'] / scales.time_s
+        else:
+            groups, kappa_d = _groups_from(cfg['groups'], source)
+            dur, rec = sim['duration'], sim['record_interval']
+        model = _build_model(cfg['model'], groups, kappa_d, system)
+        if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
+            dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.tau_10)
+        else:
+            dt = sim['time_step']
+            _check_step(dt, model, groups)
+    except ConfigError:
+        raise
+    except ParameterError as exc:
+        raise ConfigError(f'{source}: {exc}') from None
+    return Scenario(model=model, groups=groups, time_step=dt, duration=dur,
+                    record_interval=max(rec, dt),
+                    initial_perturbation=dict(sim['initial_perturbation']),
+                    perturb_where=sim['perturb'], scales=scales, system=system,
+                    kappa_d=kappa_d, raw=cfg)
+
+
+def resolve_config(name) -> Path:
+    """The file a ``--config`` value names: a path, or a name in :func:`config_dirs`."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    for folder in config_dirs():
+        for candidate in (folder / path, folder / f'{path}.yaml'):
+            if candidate.is_file():
+                return candidate
+    if path.exists():
+        raise ConfigError(f'{path}: not a file')
+    known = sorted({p.stem for d in config_dirs() if d.is_dir() for p in d.glob('*.yaml')})
+    raise ConfigError(f'{name}: no such configuration file (names in config/: '
+                      f'{", ".join(known)})')
+
+
+def _yaml_problem(exc) -> str:
+    mark = getattr(exc, 'problem_mark', None)
+    problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
+    where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark is not None else ''
+    return ' '.join(f'{where}{problem}'.split())
+
+
+def read_config(path) -> dict:
+    """The YAML mapping of a configuration file (one-line errors)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
     except OSError as exc:
-        raise ParameterError(f'cannot read configuration {path}: {exc.strerror}') from exc
+        raise ConfigError(f'{path}: cannot read: {exc.strerror or exc}') from None
+    try:
+        text = data.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f'{path}: not a text (UTF-8) file: byte {exc.start} is '
+                          f'{data[exc.start]:#04x}') from None
+    if '\0' in text:
+        raise ConfigError(f'{path}: not a text file (it contains NUL bytes)')
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ParameterError(f'malformed YAML in {path}: {exc}') from exc
-    return scenario_from_dict(apply_overrides(raw, overrides))
+        raise ConfigError(f'{path}: malformed YAML ({_yaml_problem(exc)})') from None
+    if raw is None:
+        raise ConfigError(f'{path}: empty configuration (needs at least units and model)')
+    return raw
+
+
+def load_scenario(path, overrides=(), label: str = '--set') -> Scenario:
+    """Load a YAML configuration (a path, or a name of a file in ``config/``) with
+    ``KEY=VALUE`` overrides (``label`` names where they came from in error messages)."""
+    path = resolve_config(path)
+    origin: dict = {}
+    raw = apply_overrides(read_config(path), overrides, origin, label)
+    return scenario_from_dict(raw, str(path), origin)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .parameters import ParameterError
 from .scenario import Scenario
 from .simulation import Trajectory
 
@@ -56,7 +57,7 @@ def stick_slip_summary(series: dict, stats_from: float = 0.0) -> dict:
     t = series['time']
     w = t >= stats_from
     if not np.any(w):
-        raise ValueError(f'no recorded samples after stats_from = {stats_from}')
+        raise ParameterError(f'no recorded samples after stats_from = {stats_from}')
     om = series['bit_angular_speed'][w]
     stick = series['angular_stick'][w] > 0.5
     first = float(t[w][np.argmax(stick)]) if stick.any() else None

@@ -11,6 +11,8 @@ import json
 import time
 from pathlib import Path
 
+from ..physics.parameters import ParameterError
+
 __all__ = ['FIGURE_IDS', 'reproduce']
 
 FIGURE_IDS = ('3.3.2', '3.3.3', '3.3.4', '4.1.1b', '4.1.2', '4.2.2', '4.2.3', '4.2.4', '4.2.5',
@@ -39,7 +41,7 @@ def reproduce(out_dir, figures=None, quick: bool = False, workers=None, progress
     wanted = list(figures or FIGURE_IDS)
     unknown = [f for f in wanted if f not in FIGURE_IDS]
     if unknown:
-        raise ValueError(f'unknown figure(s) {unknown}; known: {", ".join(FIGURE_IDS)}')
+        raise ParameterError(f'unknown figure(s) {unknown}; known: {", ".join(FIGURE_IDS)}')
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     summary_path = out / 'reproduction.json'

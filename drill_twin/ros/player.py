@@ -16,6 +16,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from ..io.mcap_reader import Recording
+from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .messages import message_class, qos_profile
 
@@ -49,7 +50,7 @@ class Player(Node):
         super().__init__('drill_twin_player', **kwargs)
         self._clock, self._sleep = clock, sleep  # steady clock and sleep (tests inject)
         if not (rate > 0):
-            raise ValueError(f'rate must be > 0, got {rate}')
+            raise ParameterError(f'rate must be > 0, got {rate}')
         self.recording = recording
         self.rate = float(rate)
         self.fast = bool(as_fast_as_possible)
@@ -57,7 +58,7 @@ class Player(Node):
         self.topics = list(topics) if topics else list(available)
         missing = [t for t in self.topics if t not in available]
         if missing:
-            raise ValueError(f'{recording.path} has no topic(s) {missing}; it has: '
+            raise ParameterError(f'{recording.path} has no topic(s) {missing}; it has: '
                              f'{", ".join(sorted(available))}')
         qos = {c.topic: offered_qos(c.offered_qos_profiles) for c in recording.channels.values()}
         self.pubs = {t: self.create_publisher(message_class(available[t]), t,

@@ -17,15 +17,17 @@ from __future__ import annotations
 
 import datetime
 import json
+import os
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from .. import topics as T
 from ..io.mcap_reader import RUN_METADATA
 from ..io.mcap_writer import McapRecorder
 from ..io.run_recorder import package_version, run_metadata
-from .common import float_range, run_node
+from ..physics.parameters import ParameterError
+from ..runtime.settings import RECORDER_SETTINGS, ros_home
+from .common import declare_settings, run_node, warn_unknown_overrides
 from .messages import message_class, qos_profile
 
 __all__ = ['RecorderNode', 'main']
@@ -36,20 +38,18 @@ class RecorderNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('mcap_recorder', **kwargs)
+        declare_settings(self, RECORDER_SETTINGS)
+        warn_unknown_overrides(self)
         stamp = datetime.datetime.now(datetime.UTC).strftime('%Y%m%d_%H%M%S')
-        self.declare_parameter('path', f'drill_twin_{stamp}.mcap', ParameterDescriptor(
-            description='output .mcap file'))
-        self.declare_parameter('topics', [''], ParameterDescriptor(
-            description='topics to record (names of the twin interface), default all'))
-        self.declare_parameter('chunk_period_s', 0.25, float_range(
-            0.01, 10.0, 'longest span one chunk holds = most data a kill can lose [s]'))
+        path = self.get_parameter('path').value or os.path.join(
+            ros_home(), 'drill_twin', f'mcap_recorder_{stamp}.mcap')
         g = self.get_parameter
         wanted = [t for t in g('topics').value if t]
         unknown = set(wanted) - set(T.BY_NAME)
         if unknown:
-            raise ValueError(f'not drill_twin topics: {sorted(unknown)}; known: '
+            raise ParameterError(f'not drill_twin topics: {sorted(unknown)}; known: '
                              f'{", ".join(T.BY_NAME)}')
-        self.writer = McapRecorder(g('path').value, chunk_period_s=g('chunk_period_s').value,
+        self.writer = McapRecorder(path, chunk_period_s=g('chunk_period_s').value,
                                    library=f'drill_twin {package_version()} mcap_recorder')
         self.writer.add_metadata(RUN_METADATA, run_metadata(
             'ros_time', self.get_namespace(), topics=json.dumps(wanted or 'all'),

@@ -74,7 +74,7 @@ class TwinNode(Node):
         overrides = [o for o in g('overrides') if o]
         self.get_logger().info(f"loading {g('config')}; compiling the kernels if numba's "
                                'cache is cold')
-        scenario = load_scenario(g('config'), overrides)
+        scenario = load_scenario(g('config'), overrides, label='parameter overrides:')
         self.fast = g('as_fast_as_possible')
         # a publish period of simulated time is a whole number of integration steps, so that
         # samples (and their stamps) are evenly spaced

@@ -8,9 +8,11 @@ start-up), and tests can check every entry without ROS.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
-__all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'check']
+__all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'RECORDER_SETTINGS', 'check',
+           'ros_home']
 
 
 @dataclass(frozen=True)
@@ -86,3 +88,17 @@ CONTROLLER_SETTINGS = (
     Setting('torque_filter_s', 1000.0, 'time constant of the reference-torque low-pass', 's',
             0.1, 1e6),
 )
+
+RECORDER_SETTINGS = (
+    Setting('path', '', 'output .mcap file; "" = $ROS_HOME/drill_twin/mcap_recorder_<UTC time>'
+            '.mcap', read_only=True),
+    Setting('topics', [''], 'topics to record (names of the twin interface); default all',
+            read_only=True),
+    Setting('chunk_period_s', 0.25, 'longest span one chunk holds = most a kill can lose', 's',
+            0.01, 10.0, read_only=True),
+)
+
+
+def ros_home() -> str:
+    """``$ROS_HOME``, or ``~/.ros`` (where ROS keeps logs; recordings default below it)."""
+    return os.environ.get('ROS_HOME') or os.path.join(os.path.expanduser('~'), '.ros')

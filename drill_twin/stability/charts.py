@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..physics.parameters import ParameterError
 from ..physics.scenario import apply_overrides, scenario_from_dict
 from .linearize import linearize_scenario
 from .spectrum import rightmost_roots
@@ -56,10 +57,10 @@ def parse_axis(spec: str):
     try:
         key, lo, hi, n = spec.rsplit(':', 3)
         values = np.linspace(float(lo), float(hi), int(n))
-    except ValueError as exc:
-        raise ValueError(f'axis {spec!r} is not KEY:MIN:MAX:N') from exc
+    except ValueError:
+        raise ParameterError(f'axis {spec!r} is not KEY:MIN:MAX:N') from None
     if int(n) < 2 or not np.all(np.isfinite(values)):
-        raise ValueError(f'axis {spec!r} needs N >= 2 and finite bounds')
+        raise ParameterError(f'axis {spec!r} needs N >= 2 and finite bounds')
     return key, values
 
 

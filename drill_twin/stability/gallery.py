@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from .charts import chart_pool, plot_chart, stability_chart
 
@@ -52,6 +53,10 @@ FIGURES = {
 
 def make_gallery(out_dir, figures=None, quick: bool = False, workers=None, progress=None):
     """Compute and draw the charts; returns a summary dict (stable fractions, times)."""
+    unknown = [f for f in figures or () if f not in FIGURES]
+    if unknown:
+        raise ParameterError(f'unknown figure(s) {", ".join(unknown)}; the gallery has: '
+                             f'{", ".join(FIGURES)}')
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -82,11 +87,14 @@ def draw_figure(out, fig_id, n, pool, summary, plt):
         chart = stability_chart(raw, xk, np.linspace(x0, x1, n[0]), yk,
                                 np.linspace(y0, y1, n[1]), pool=pool,
                                 threshold=threshold, order=order[0] if order else None)
+        if threshold > 1e-9:   # say it in the picture: the shading is a growth threshold
+            title += f'\nshaded: every root Re λ < {threshold:g}/t* (not strictly stable)'
         plot_chart(chart, None, title=title, ax=ax)
         summary[f'{fig_id} {title}'] = {
             'stable_fraction': float((chart.unstable == 0).mean()),
             'wall_s': time.perf_counter() - t0, 'threshold': threshold}
-    fig.suptitle(f'Thesis Fig. {fig_id}: stable region shaded, D-curves in black')
+    fig.suptitle(f'Thesis Fig. {fig_id}: shaded where no root lies right of the panel\'s '
+                 'threshold; D-curves in black')
     fig.tight_layout()
     fig.savefig(out / f'fig_{fig_id.replace(".", "_")}.png', dpi=100)
     plt.close(fig)
