@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from geometry_msgs.msg import TwistStamped, WrenchStamped  # noqa: E402
+from geometry_msgs.msg import WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
