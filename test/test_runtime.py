@@ -180,7 +180,8 @@ def test_numba_cache_is_keyed_by_the_jitted_sources(tmp_path):
     key = numba_cache.source_key(src)
     assert key == numba_cache.source_key()
     law = src / 'interface_law.py'
-    law.write_text(law.read_text().replace('n_b * depth_of_cut', 'n_b * depth_of_cut * 1.0'))
+    law.write_text(law.read_text().replace('weights[b] * depths[b]',
+                                           '1.0 * weights[b] * depths[b]'))
     assert numba_cache.source_key(src) != key
     law.write_text((numba_cache.PHYSICS_DIR / 'interface_law.py').read_text())
     assert numba_cache.source_key(src) == key

@@ -1,48 +1,150 @@
-"""Bit/rock interface law of Detournay & Defourny (thesis eqs 2.2.4-2.2.9, 2.4.10-2.4.11).
+"""The bit/rock interface law of Detournay & Defourny, set-valued, in one place (thesis eqs
+2.2.4-2.2.9, 2.4.10-2.4.11, §3.3).
 
-Dimensionless, in total (not perturbed) quantities: depth of cut per blade
-``δ`` (units d*), weight on bit ``W`` (units W*), torque on bit ``T`` (units
-C, see :mod:`drill_twin.physics.parameters`):
+Dimensionless, in total (not perturbed) quantities: depth of cut ``d_b`` of each
+blade (units d*, from :mod:`drill_twin.physics.bottom_surface`), weight on bit
+``W`` (units W*), torque on bit ``T`` (units C).  A blade in contact with the rock
+(``d_b > 0``) cuts with force ``d_b`` (both W and T, per blade), and its wear flat
+carries at most ``λ``::
 
-    W = n_b δ⁺ + W_f,         T = n_b δ⁺ + β W_f,
+    W = W_c + W_f,  T = W_c + β W_f,   W_c = Σ_contact d_b,   W_f ∈ [0, λ n_contact]
 
-where ``δ⁺ = δ`` while the blades engage rock (δ > 0) and 0 otherwise (bit
-bounce / off bottom: no cutting, no wear-flat contact), and the wear-flat
-force ``W_f`` is set-valued on the bit axial velocity V:
+(``n_contact`` the number of blades in contact; an evenly spaced bit has all its
+n_b blades in or out together, giving the thesis's ``W = n_b δ + W_f``).  The
+wear-flat force is set-valued on the bit axial velocity V: ``λ n_contact`` while
+the bit moves down, 0 while it moves up or is off bottom, and in between while the
+bit is axially stuck (V = 0), from the axial force balance.  The torque of the wear
+flats is ``β W_f`` (``T_f/C = a μ γ W_f /(2C) = μγζ W_f/W*``).
 
-    V > 0: W_f = n_b λ;     V < 0: W_f = 0;     V = 0: W_f ∈ [0, n_b λ]
+Modes, switching functions and transitions
+------------------------------------------
+Within an integration step the interface holds a **mode** (angular slip or stick;
+axial down, up or stuck; contact of each blade).  The mode is valid while every
+switching function of :func:`switching` is >= 0:
 
-(the last from the axial force balance, thesis §3.3).  The torque of the
-wear flats is ``β W_f`` because ``T_f/C = a μ γ W_f /(2C) = μγζ W_f/W*``.
+* angular slip: bit speed Ω >= 0 (no backward rotation);
+* angular stick: the string torque ``T_req`` the clamp must hold does not exceed
+  the resisting torque ``W_c + β W_f`` (static threshold);
+* axial down / up: V >= 0 / -V >= 0;
+* axial stuck: ``0 <= W_req - W_c <= λ n_contact`` (the reaction the rock must give
+  lies within the wear-flat bounds); while also stuck angularly only lift-off
+  (``W_req >= 0``) ends it — the rock blocks downward motion of a bit that does
+  not turn;
+* each blade: its depth of cut keeps its sign (contact or not), checked while the
+  bit slips angularly or moves up (a bit stuck both ways cannot change depth).
 
-These are tiny pure jitted functions used by the integrator kernel.
+When one becomes negative the step is cut at the crossing and
+:func:`transition` applies the rule of that function; the kernel then settles
+the mode consistent with the state (:func:`drill_twin.physics.kernel`).  No velocity
+threshold is involved anywhere.
 """
 from __future__ import annotations
 
 from numba import njit
 
-__all__ = ['cutting_force', 'wear_flat_force', 'bit_weight', 'bit_torque']
+__all__ = ['ANG_SLIP', 'ANG_STICK', 'AX_DOWN', 'AX_UP', 'AX_STUCK', 'MD_ANG', 'MD_AX',
+           'MD_CONTACT', 'G_ANG', 'G_AX_LOW', 'G_AX_HIGH', 'G_CONTACT', 'contact_forces',
+           'sliding_wear_flat', 'stuck_wear_flat', 'bit_weight', 'bit_torque', 'switching',
+           'transition']
+
+# mode vector: angular mode, axial mode, then one contact flag per blade group
+MD_ANG, MD_AX, MD_CONTACT = 0, 1, 2
+ANG_SLIP, ANG_STICK = 0, 1
+AX_DOWN, AX_UP, AX_STUCK = 0, 1, 2
+# switching functions: angular, axial (two bounds), then one per blade group
+G_ANG, G_AX_LOW, G_AX_HIGH, G_CONTACT = 0, 1, 2, 3
+_BIG = 1e300
+
+
+@njit(cache=True, nogil=True)
+def contact_forces(depths, weights, mode, lam):
+    """Cutting force ``W_c = Σ_contact w_b d_b`` and the wear-flat capacity
+    ``λ Σ_contact w_b`` (``w_b`` blades per group)."""
+    cut = 0.0
+    blades = 0.0
+    for b in range(depths.size):
+        if mode[MD_CONTACT + b] == 1:
+            cut += weights[b] * depths[b]
+            blades += weights[b]
+    return cut, lam * blades
 
 
 @njit(cache=True, nogil=True, inline='always')
-def cutting_force(depth_of_cut, n_b, in_contact):
-    """Cutting component n_b δ of both W (units W*) and T (units C); 0 off bottom."""
-    return n_b * depth_of_cut if in_contact else 0.0
+def sliding_wear_flat(ax_mode, capacity):
+    """W_f while the bit slides axially: the whole capacity moving down, none moving up."""
+    return capacity if ax_mode == AX_DOWN else 0.0
 
 
 @njit(cache=True, nogil=True, inline='always')
-def wear_flat_force(moving_down, in_contact, n_b, lam):
-    """Wear-flat contact force W_f while sliding: n_b λ moving down, 0 moving up/off bottom."""
-    return n_b * lam if (moving_down and in_contact) else 0.0
+def stuck_wear_flat(w_required, cut, capacity):
+    """W_f of an axially stuck bit: the reaction the balance asks, within [0, capacity]."""
+    return min(max(w_required - cut, 0.0), capacity)
 
 
 @njit(cache=True, nogil=True, inline='always')
-def bit_weight(cutting, wear_flat):
+def bit_weight(cut, wear_flat):
     """Weight on bit W = W_c + W_f (eq. 2.2.4)."""
-    return cutting + wear_flat
+    return cut + wear_flat
 
 
 @njit(cache=True, nogil=True, inline='always')
-def bit_torque(cutting, wear_flat, beta):
-    """Torque on bit T = T_c + T_f = n_b δ + β W_f (eq. 2.2.5, units C)."""
-    return cutting + beta * wear_flat
+def bit_torque(cut, wear_flat, beta):
+    """Torque on bit T = W_c + β W_f (eq. 2.2.5, units C)."""
+    return cut + beta * wear_flat
+
+
+@njit(cache=True, nogil=True)
+def switching(mode, omega_bit, v_bit, depths, cut, capacity, beta, w_required, t_required,
+              torsion, g):
+    """Fill ``g`` (size 3 + blade groups) with the switching functions of the mode (the
+    mode holds while all are >= 0).  ``torsion``: the model has a torsional chain."""
+    for k in range(g.size):
+        g[k] = _BIG
+    ang = mode[MD_ANG]
+    ax = mode[MD_AX]
+    if ax == AX_STUCK:
+        w_f = stuck_wear_flat(w_required, cut, capacity)
+    else:
+        w_f = sliding_wear_flat(ax, capacity)
+    if torsion:
+        if ang == ANG_SLIP:
+            g[G_ANG] = omega_bit
+        else:
+            g[G_ANG] = bit_torque(cut, w_f, beta) - t_required
+    if ax == AX_DOWN:
+        g[G_AX_LOW] = v_bit
+    elif ax == AX_UP:
+        g[G_AX_LOW] = -v_bit
+    elif ang == ANG_STICK:
+        g[G_AX_LOW] = w_required
+    else:
+        g[G_AX_LOW] = w_required - cut
+        g[G_AX_HIGH] = capacity - (w_required - cut)
+    if ang == ANG_SLIP or ax == AX_UP:
+        for b in range(depths.size):
+            g[G_CONTACT + b] = depths[b] if mode[MD_CONTACT + b] == 1 else -depths[b]
+
+
+@njit(cache=True, nogil=True)
+def transition(k, mode, w_required):
+    """Apply the rule of switching function ``k`` that has just reached zero.
+
+    Returns ``(stop_rotation, stop_descent)``: the bit speed (angular) or axial speed
+    that crossed zero is to be set exactly to zero by the caller (the crossing is
+    located to round-off; the velocity is then exactly 0, not a small number).
+    """
+    if k >= G_CONTACT:
+        b = k - G_CONTACT
+        mode[MD_CONTACT + b] = 1 - mode[MD_CONTACT + b]
+        if mode[MD_AX] == AX_STUCK:   # a stuck bit that gains or loses a blade re-slides
+            mode[MD_AX] = AX_DOWN if w_required > 0.0 else AX_UP
+        return False, False
+    if k == G_ANG:
+        if mode[MD_ANG] == ANG_SLIP:
+            return True, False          # the bit stops turning: settle decides stick
+        mode[MD_ANG] = ANG_SLIP         # the string torque breaks the bit free
+        return False, False
+    if mode[MD_AX] == AX_STUCK:
+        mode[MD_AX] = AX_UP if k == G_AX_LOW else AX_DOWN
+        return False, False
+    return False, True                  # the bit stops moving axially: settle decides

@@ -1,69 +1,140 @@
-"""Jitted time-integration kernel: RK4 with event-located bit stick/slip transitions.
+"""Jitted time-integration kernel: RK4 with event-located stick/slip transitions.
 
 Method (one integrator for every model)
 ---------------------------------------
-* The perturbation equations of :mod:`drill_twin.physics.models` are written
-  as a first-order system ``x = [u, u', φ, φ', θ_p, ω_p]`` and advanced with the
-  classical 4th-order Runge-Kutta method.  Mass matrices are tridiagonal and
-  factorised once (Thomas algorithm), so a step costs O(n).
-* The bit/rock law is piecewise smooth.  Within a step the *mode* of the
-  interface (angular slip/stick, axial down/up/stuck, contact yes/no) is held
-  fixed, so the right-hand side is smooth and RK4 keeps its order.  Each mode
-  has switching functions ``g >= 0`` (bit speed, reaction force minus its
-  bounds, depth of cut).  When one becomes negative at the end of a step, the
-  crossing is located by the Illinois (modified regula falsi) method, re-
-  integrating from the step start, to 1e-10 of the step; the step is cut
-  there, the mode is changed and the integration goes on.  No velocity
-  threshold is involved: a stuck bit has its velocity exactly zero and is held
-  by a Lagrange multiplier (Schur complement of the tridiagonal mass matrix),
-  whose value is the reaction force checked against the set-valued law.
-* Stick rules (thesis §3.3): angular stick when the bit speed reaches zero and
-  the string torque does not exceed the bit's resisting torque ``n_b δ + β W_f``;
-  no backward rotation; no drilling while stuck angularly (the rock blocks
-  downward motion, so a bit moving down is stopped by an inelastic impulse,
-  reported in the diagnostics); axial stick while ``0 <= W - W_c <= n_b λ``;
-  lift-off (W_f < 0) and bit bounce (depth of cut <= 0: no contact at all).
-* The delayed state comes from :mod:`drill_twin.physics.delay_history`.
+* The perturbation equations of :mod:`drill_twin.physics.models` are written as
+  a first-order system ``x = [u, u', φ, φ', θ_p, ω_p, z_p]`` (:func:`layout`) and
+  advanced with the classical 4th-order Runge-Kutta method.  Mass matrices are
+  tridiagonal and factorised once (Thomas algorithm), so a step costs O(n).
+* The bit/rock law (:mod:`drill_twin.physics.interface_law`) is piecewise smooth.
+  Within a step the interface *mode* is held fixed, so the right-hand side is
+  smooth and RK4 keeps its order.  When a switching function of the mode is
+  negative at the end of a step, the crossing is located by the Illinois method on
+  the step's cubic Hermite interpolant of the state (the dense output of the step,
+  as scipy's ``solve_ivp`` locates events), the step is redone to that instant, the
+  law's transition rule applies and the mode is settled; integration goes on.  A
+  stuck bit has its velocity exactly zero and is held by a Lagrange multiplier
+  (Schur complement of the tridiagonal mass matrix), whose value is the reaction
+  checked against the set-valued law.  No velocity threshold is involved.
+* The depth of cut comes from the bottom-hole surface
+  (:mod:`drill_twin.physics.bottom_surface`), written after every accepted step
+  from the step's interpolant of the bit motion.
+
+Data: the chains ``A`` (axial) and ``T`` (torsional) are packed tridiagonal
+matrices (:func:`pack_chain`); the rest of the model is a few small tuples and
+arrays, named in :mod:`drill_twin.physics.simulation`:
+
+``law``   :class:`Law` — bit/rock numbers and the blade groups;
+``top``   :class:`Top` — nominal motion and the couplings of the top to the drives;
+``inp``   run-time inputs ``[surface speed command, axial top force, block velocity]``;
+``surf, geom``  the bottom surface; ``th, thm`` the velocity history (model III).
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from .delay_history import delayed_state, push_sample, velocities_at_time
-from .interface_law import bit_torque, bit_weight, cutting_force, wear_flat_force
+from .bottom_surface import read_surface, write_step
+from .interface_law import (
+    ANG_SLIP,
+    ANG_STICK,
+    AX_DOWN,
+    AX_STUCK,
+    AX_UP,
+    MD_ANG,
+    MD_AX,
+    MD_CONTACT,
+    bit_torque,
+    bit_weight,
+    contact_forces,
+    sliding_wear_flat,
+    stuck_wear_flat,
+    switching,
+    transition,
+)
+from .time_history import push_velocities, velocities_at_time
 
-# parameter vector layout ------------------------------------------------------------
-P_NB, P_LAM, P_BETA, P_OMEGA, P_UPS, P_WO, P_TO, P_PSI = 0, 1, 2, 3, 4, 5, 6, 7
-P_KTOP_A, P_CTOP_A, P_KTOP_T, P_CTOP_T, P_MTOP_T, P_DRIVE_TAU = 8, 9, 10, 11, 12, 13
-P_ZDEL_A, P_TDEL_A, P_ZDEL_T, P_TDEL_T = 14, 15, 16, 17  # delayed dash-pots (model III)
-N_PARAMS = 18
-# run-time inputs ----------------------------------------------------------------------
-IN_OMEGA_CMD, IN_AXIAL_FORCE, IN_MOTOR_TORQUE = 0, 1, 2
+__all__ = ['Law', 'Top', 'pack_chain', 'advance', 'snapshot', 'layout', 'RECORD_CHANNELS',
+           'IN_OMEGA_CMD', 'IN_AXIAL_FORCE', 'IN_BLOCK_VELOCITY', 'N_INPUTS',
+           'C_STEPS', 'C_EVENTS', 'C_IMPULSES', 'C_STATUS', 'C_BAD_INDEX', 'C_WRITES',
+           'N_COUNTERS', 'STATUS_OK', 'STATUS_NONFINITE']
+
+
+class Law(NamedTuple):
+    """Bit/rock law (dimensionless): bluntness λ per blade, β, and the blade groups —
+    ``offsets`` their angles on the surface period, ``weights`` blades per group."""
+
+    lam: float
+    beta: float
+    offsets: np.ndarray
+    weights: np.ndarray
+
+
+class Top(NamedTuple):
+    """Nominal motion and the couplings of the string's top to the drives.
+
+    ``omega_o, upsilon_o, W_o, T_o``: steady state; ``psi``: axial force scale;
+    ``k_t, c_t, m_t``: torsional coupling of DOF 0 to the motor angle θ_p;
+    ``k_a, c_a``: axial coupling of DOF 0 to the block position z_p (imposed
+    velocity top or drill line of a hoist); ``drive_tau``: lag of the motor speed
+    behind its command (0 = stiff); ``z_a, tau_a, z_t, tau_t``: delayed radiation
+    dash-pots of lumped model III (0 otherwise).
+    """
+
+    omega_o: float
+    upsilon_o: float
+    W_o: float
+    T_o: float
+    psi: float
+    k_t: float
+    c_t: float
+    m_t: float
+    k_a: float
+    c_a: float
+    drive_tau: float
+    z_a: float
+    tau_a: float
+    z_t: float
+    tau_t: float
+
+
+# run-time inputs ------------------------------------------------------------------------
+IN_OMEGA_CMD, IN_AXIAL_FORCE, IN_BLOCK_VELOCITY = 0, 1, 2
 N_INPUTS = 3
-# mode vector --------------------------------------------------------------------------
-MD_ANG, MD_AX, MD_CONTACT = 0, 1, 2
-ANG_SLIP, ANG_STICK = 0, 1
-AX_DOWN, AX_UP, AX_STUCK = 0, 1, 2
-# aux outputs of the right-hand side ---------------------------------------------------
-AX_W, AX_T, AX_DELTA, AX_TAU1, AX_RES, AX_CUT, AX_WREQ, AX_TREQ = 0, 1, 2, 3, 4, 5, 6, 7
-N_AUX = 8
-# counters -----------------------------------------------------------------------------
-C_STEPS, C_EVENTS, C_IMPULSES, C_STATUS, C_BAD_INDEX = 0, 1, 2, 3, 4
-N_COUNTERS = 5
+# counters -------------------------------------------------------------------------------
+C_STEPS, C_EVENTS, C_IMPULSES, C_STATUS, C_BAD_INDEX, C_WRITES = 0, 1, 2, 3, 4, 5
+N_COUNTERS = 6
 STATUS_OK, STATUS_NONFINITE = 0, 1
-# record columns -----------------------------------------------------------------------
-R_TAU, R_V, R_OMEGA, R_W, R_T, R_DELTA, R_TAU1, R_RES = 0, 1, 2, 3, 4, 5, 6, 7
-R_ANG, R_AX, R_CONTACT, R_TSURF, R_OMSURF, R_UBIT, R_PHIBIT, R_VTOP = 8, 9, 10, 11, 12, 13, 14, 15
-R_STICK_TIME = 16
-N_RECORD = 17
-# packed chain rows --------------------------------------------------------------------
+# record channels (one row per recorded step), in this order ---------------------------------
+RECORD_CHANNELS = ('tau', 'bit_axial_speed', 'bit_angular_speed', 'weight_on_bit',
+                   'torque_on_bit', 'depth_of_cut', 'delay', 'delay_residual',
+                   'angular_stick', 'axial_mode', 'contact', 'surface_torque',
+                   'surface_speed', 'bit_axial_perturbation', 'bit_angle_perturbation',
+                   'top_axial_speed', 'stick_time', 'hook_load_change', 'bit_position',
+                   'bit_angle', 'block_position', 'top_angle_perturbation')
+N_RECORD = len(RECORD_CHANNELS)
+# aux values of the right-hand side --------------------------------------------------------
+X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH = 0, 1, 2, 3, 4, 5, 6, 7, 8
+N_AUX = 9
+# packed chain rows ----------------------------------------------------------------------
 CH_M, CH_C, CH_K, CH_CP, CH_INV, CH_Z = 0, 3, 6, 9, 10, 11
 N_CHAIN_ROWS = 12
 
 
+def layout(na: int, nt: int) -> dict:
+    """Slices of the state vector: axial u, u', torsional φ, φ', drive θ_p, ω_p, block z_p."""
+    d = 2 * na + 2 * nt
+    return {'u': slice(0, na), 'v': slice(na, 2 * na), 'phi': slice(2 * na, 2 * na + nt),
+            'omega': slice(2 * na + nt, d), 'drive_angle': slice(d, d + 1),
+            'drive_speed': slice(d + 1, d + 2), 'block': slice(d + 2, d + 3)}
+
+
 def pack_chain(chain) -> np.ndarray:
-    """Pack a :class:`~drill_twin.physics.models.Chain` for the kernel (12 x n)."""
+    """Pack a :class:`~drill_twin.physics.models.Chain` for the kernel (12 x n): the three
+    tridiagonal matrices, the Thomas factors of M and ``z = M⁻¹ e_last`` (the compliance of
+    the last DOF, for the Lagrange multiplier of a stuck bit)."""
     if chain is None:
         return np.zeros((N_CHAIN_ROWS, 0))
     n = chain.n
@@ -120,394 +191,474 @@ def _internal_force(ch, q, qd, out):
 
 
 @njit(cache=True, nogil=True)
-def bit_totals(tau, x, P, na, nt):
+def bit_totals(tau, x, top, na, nt):
     """Total bit axial position/velocity and angle/speed (U, V, Φ, Ω), dimensionless."""
-    ub = P[P_UPS] * tau + x[na - 1]
-    vb = P[P_UPS] + x[2 * na - 1]
-    ith = 2 * na + 2 * nt
+    ub = top.upsilon_o * tau + x[na - 1]
+    vb = top.upsilon_o + x[2 * na - 1]
     if nt > 0:
-        phb = P[P_OMEGA] * tau + x[2 * na + nt - 1]
-        omb = P[P_OMEGA] + x[2 * na + 2 * nt - 1]
-    else:
-        phb = P[P_OMEGA] * tau + x[ith]
-        omb = P[P_OMEGA] + x[ith + 1]
+        phb = top.omega_o * tau + x[2 * na + nt - 1]
+        omb = top.omega_o + x[2 * na + 2 * nt - 1]
+    else:  # axial-only models: the bit turns with the prescribed drive
+        d = 2 * na + 2 * nt
+        phb = top.omega_o * tau + x[d]
+        omb = top.omega_o + x[d + 1]
     return ub, vb, phb, omb
 
 
+class Work(NamedTuple):
+    """Scratch arrays of one integration (allocated once per :func:`advance` call)."""
+
+    k1: np.ndarray
+    k2: np.ndarray
+    k3: np.ndarray
+    k4: np.ndarray
+    tmp: np.ndarray
+    x_end: np.ndarray
+    x_try: np.ndarray
+    aux: np.ndarray
+    ra: np.ndarray
+    ya: np.ndarray
+    rt: np.ndarray
+    yt: np.ndarray
+    depths: np.ndarray
+    read: np.ndarray
+    g: np.ndarray
+    g_lo: np.ndarray
+
+
 @njit(cache=True, nogil=True)
-def rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, dstate):
-    """Right-hand side of the first-order system in a fixed interface mode."""
+def _work(n, na, nt, groups):
+    return Work(np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                np.empty(n), np.zeros(N_AUX), np.empty(na), np.empty(na), np.empty(nt),
+                np.empty(nt), np.zeros(groups), np.zeros(3), np.empty(3 + groups),
+                np.empty(3 + groups))
+
+
+@njit(cache=True, nogil=True)
+def _depths(tau, ub, phb, law, surf, geom, w):
+    """Depth of cut of every blade group (and the mean delay / worst residual in aux)."""
+    delay = 0.0
+    res = 0.0
+    for b in range(law.offsets.size):
+        read_surface(surf, geom, phb, law.offsets[b], w.read)
+        w.depths[b] = ub - w.read[0]
+        delay += tau - w.read[1]
+        res = max(res, w.read[2])
+    w.aux[X_DELAY] = delay / law.offsets.size
+    w.aux[X_RES] = res
+
+
+@njit(cache=True, nogil=True)
+def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
+    """Right-hand side of the first-order system in a fixed interface mode; fills ``dx`` and
+    the aux values (forces, reactions the law checks, delay)."""
     na = A.shape[1]
     nt = T.shape[1]
-    ith = 2 * na + 2 * nt
-    n_b = P[P_NB]
-    ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-    delayed_state(hist, meta, phb - 2.0 * np.pi / n_b, dstate)
-    delta = ub - dstate[1]
-    contact = mode[MD_CONTACT] == 1
-    cut = cutting_force(delta, n_b, contact)
-    aux[AX_DELTA] = delta
-    aux[AX_TAU1] = tau - dstate[0]
-    aux[AX_RES] = dstate[2]
-    aux[AX_CUT] = cut
-    # drive (prescribed top angle perturbation θ_p, speed perturbation ω_p)
-    om_p = x[ith + 1]
-    if P[P_DRIVE_TAU] > 0.0:
-        om_p_dot = (IN[IN_OMEGA_CMD] - P[P_OMEGA] - om_p) / P[P_DRIVE_TAU]
+    d = 2 * na + 2 * nt
+    ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
+    _depths(tau, ub, phb, law, surf, geom, w)
+    cut, cap = contact_forces(w.depths, law.weights, mode, law.lam)
+    w.aux[X_CUT] = cut
+    w.aux[X_CAP] = cap
+    n_b = 0.0
+    for b in range(law.weights.size):
+        n_b += law.weights[b]
+    mean_depth = 0.0
+    for b in range(law.weights.size):
+        mean_depth += law.weights[b] * w.depths[b]
+    w.aux[X_DEPTH] = mean_depth / n_b
+    # drives: motor angle/speed perturbation θ_p, ω_p (first-order lag or stiff); block z_p
+    om_p = x[d + 1]
+    om_p_dot = (inp[IN_OMEGA_CMD] - top.omega_o - om_p) / top.drive_tau \
+        if top.drive_tau > 0.0 else 0.0
+    z_p_dot = inp[IN_BLOCK_VELOCITY] - top.upsilon_o
+    dx[d] = om_p
+    dx[d + 1] = om_p_dot
+    dx[d + 2] = z_p_dot
+    _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w)
+    w_f = w.aux[X_W] - cut
+    if nt > 0:
+        _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot, dx,
+                   w, na)
     else:
-        om_p_dot = 0.0
-    dx[ith] = om_p
-    dx[ith + 1] = om_p_dot
-    # axial chain
-    psi = P[P_PSI]
+        w.aux[X_T] = bit_torque(cut, w_f, law.beta)
+        w.aux[X_TREQ] = w.aux[X_T]
+
+
+@njit(cache=True, nogil=True)
+def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
+    na = A.shape[1]
+    nt_off = x.size - 3  # the drive block starts at 2 na + 2 nt
+    psi = top.psi
     u = x[0:na]
     v = x[na:2 * na]
+    ra, ya = w.ra, w.ya
     _internal_force(A, u, v, ra)
-    ra[0] += psi * IN[IN_AXIAL_FORCE]
-    z_t_delayed = 0.0
-    if P[P_ZDEL_A] > 0.0 or P[P_ZDEL_T] > 0.0:
-        # lumped model III: pipe force = radiation force of the bit velocity one wave
-        # round trip earlier (single-mass chains: DOF 0 is the bit)
-        velocities_at_time(hist, meta, tau - P[P_TDEL_A], dstate)
-        ra[0] -= P[P_ZDEL_A] * (dstate[0] - P[P_UPS])
-        velocities_at_time(hist, meta, tau - P[P_TDEL_T], dstate)
-        z_t_delayed = P[P_ZDEL_T] * (dstate[1] - P[P_OMEGA])
+    ra[0] += psi * inp[IN_AXIAL_FORCE] + top.k_a * x[nt_off + 2] + top.c_a * z_p_dot
+    if top.z_a > 0.0:
+        # lumped model III: pipe force = radiation force of the bit velocity one wave round
+        # trip earlier (single-mass chains: DOF 0 is the bit)
+        velocities_at_time(th, thm, tau - top.tau_a, w.read)
+        ra[0] -= top.z_a * (w.read[0] - top.upsilon_o)
     if mode[MD_AX] == AX_STUCK:
         _solve(A, ra, ya)
         lam_c = ya[na - 1] / A[CH_Z, na - 1]
-        w_req = P[P_WO] + lam_c / psi
+        w_req = top.W_o + lam_c / psi
         for i in range(na):
             ya[i] -= lam_c * A[CH_Z, i]
         ya[na - 1] = 0.0
         w_bit = w_req
-        w_f = w_req - cut
     else:
-        w_f = wear_flat_force(mode[MD_AX] == AX_DOWN, contact, n_b, P[P_LAM])
-        w_bit = bit_weight(cut, w_f)
-        ra[na - 1] -= psi * (w_bit - P[P_WO])
+        w_bit = bit_weight(cut, sliding_wear_flat(mode[MD_AX], cap))
+        ra[na - 1] -= psi * (w_bit - top.W_o)
         _solve(A, ra, ya)
-        # the reaction a stuck bit would need (for the event functions)
-        w_req = P[P_WO] + (ya[na - 1] / A[CH_Z, na - 1]) / psi + (w_bit - P[P_WO])
+        # the reaction a stuck bit would need (for the switching functions)
+        w_req = top.W_o + (ya[na - 1] / A[CH_Z, na - 1]) / psi + (w_bit - top.W_o)
     for i in range(na):
         dx[i] = v[i]
         dx[na + i] = ya[i]
-    aux[AX_W] = w_bit
-    aux[AX_WREQ] = w_req
-    # torsional chain
-    if nt > 0:
-        ph = x[2 * na:2 * na + nt]
-        w = x[2 * na + nt:ith]
-        _internal_force(T, ph, w, rt)
-        rt[0] += (P[P_KTOP_T] * x[ith] + P[P_CTOP_T] * om_p + P[P_MTOP_T] * om_p_dot
-                  + IN[IN_MOTOR_TORQUE] - z_t_delayed)
-        if mode[MD_ANG] == ANG_STICK:
-            _solve(T, rt, yt)
-            lam_c = yt[nt - 1] / T[CH_Z, nt - 1]
-            t_req = P[P_TO] + lam_c
-            for i in range(nt):
-                yt[i] -= lam_c * T[CH_Z, i]
-            yt[nt - 1] = 0.0
-            t_bit = t_req
-        else:
-            t_bit = bit_torque(cut, w_f, P[P_BETA])
-            rt[nt - 1] -= t_bit - P[P_TO]
-            _solve(T, rt, yt)
-            t_req = t_bit + yt[nt - 1] / T[CH_Z, nt - 1]
+    w.aux[X_W] = w_bit
+    w.aux[X_WREQ] = w_req
+
+
+@njit(cache=True, nogil=True)
+def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot, dx, w, na):
+    nt = T.shape[1]
+    d = 2 * na + 2 * nt
+    ph = x[2 * na:2 * na + nt]
+    om = x[2 * na + nt:d]
+    rt, yt = w.rt, w.yt
+    _internal_force(T, ph, om, rt)
+    rt[0] += top.k_t * x[d] + top.c_t * om_p + top.m_t * om_p_dot
+    if top.z_t > 0.0:
+        velocities_at_time(th, thm, tau - top.tau_t, w.read)
+        rt[0] -= top.z_t * (w.read[1] - top.omega_o)
+    if mode[MD_ANG] == ANG_STICK:
+        _solve(T, rt, yt)
+        lam_c = yt[nt - 1] / T[CH_Z, nt - 1]
+        t_req = top.T_o + lam_c
         for i in range(nt):
-            dx[2 * na + i] = w[i]
-            dx[2 * na + nt + i] = yt[i]
-        aux[AX_T] = t_bit
-        aux[AX_TREQ] = t_req
+            yt[i] -= lam_c * T[CH_Z, i]
+        yt[nt - 1] = 0.0
+        t_bit = t_req
     else:
-        aux[AX_T] = bit_torque(cut, w_f, P[P_BETA])
-        aux[AX_TREQ] = aux[AX_T]
+        t_bit = bit_torque(cut, w_f, law.beta)
+        rt[nt - 1] -= t_bit - top.T_o
+        _solve(T, rt, yt)
+        t_req = t_bit + yt[nt - 1] / T[CH_Z, nt - 1]
+    for i in range(nt):
+        dx[2 * na + i] = om[i]
+        dx[2 * na + nt + i] = yt[i]
+    w.aux[X_T] = t_bit
+    w.aux[X_TREQ] = t_req
 
 
 @njit(cache=True, nogil=True)
-def _switching(tau, x, mode, P, aux, na, nt, g):
-    """Switching functions of the current mode; the mode is valid while all g >= 0."""
-    ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-    big = 1e300
-    g[0] = big
-    g[1] = big
-    g[2] = big
-    g[3] = big
-    n_b_lam = P[P_NB] * P[P_LAM]
-    cut = aux[AX_CUT]
-    contact = mode[MD_CONTACT] == 1
-    ax = mode[MD_AX]
-    if ax == AX_STUCK:
-        w_f = min(max(aux[AX_WREQ] - cut, 0.0), n_b_lam)
-    elif ax == AX_DOWN and contact:
-        w_f = n_b_lam
-    else:
-        w_f = 0.0
-    if nt > 0:
-        if mode[MD_ANG] == ANG_SLIP:
-            g[0] = omb
-        else:
-            g[0] = cut + P[P_BETA] * w_f - aux[AX_TREQ]
-    if ax == AX_DOWN:
-        g[1] = vb
-    elif ax == AX_UP:
-        g[1] = -vb
-    else:
-        if mode[MD_ANG] == ANG_STICK:
-            g[1] = aux[AX_WREQ]
-        else:
-            g[1] = aux[AX_WREQ] - cut
-            g[2] = n_b_lam - (aux[AX_WREQ] - cut)
-    if mode[MD_ANG] == ANG_SLIP or ax == AX_UP:
-        g[3] = aux[AX_DELTA] if contact else -aux[AX_DELTA]
-
-
-@njit(cache=True, nogil=True)
-def _rk4(tau, x, h, k1, mode, P, IN, A, T, hist, meta, out, k2, k3, k4, tmp, aux, ra, ya,
-         rt, yt, ds):
-    n = x.size
-    for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * k1[i]
-    rhs(tau + 0.5 * h, tmp, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya, rt, yt, ds)
-    for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * k2[i]
-    rhs(tau + 0.5 * h, tmp, mode, P, IN, A, T, hist, meta, k3, aux, ra, ya, rt, yt, ds)
-    for i in range(n):
-        tmp[i] = x[i] + h * k3[i]
-    rhs(tau + h, tmp, mode, P, IN, A, T, hist, meta, k4, aux, ra, ya, rt, yt, ds)
-    for i in range(n):
-        out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-
-
-@njit(cache=True, nogil=True)
-def _settle(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds, counters):
-    """Choose the interface mode consistent with the state after an event.
-
-    Called with the velocity that crossed zero already set exactly to zero.
-    """
+def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w, g):
+    """Evaluate the right-hand side (for the reactions) and the switching functions."""
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
     na = A.shape[1]
     nt = T.shape[1]
-    n_b_lam = P[P_NB] * P[P_LAM]
+    ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
+    switching(mode, omb, vb, w.depths, w.aux[X_CUT], w.aux[X_CAP], law.beta, w.aux[X_WREQ],
+              w.aux[X_TREQ], nt > 0, g)
+    gmin = g[0]
+    for k in range(1, g.size):
+        gmin = min(gmin, g[k])
+    return gmin
+
+
+@njit(cache=True, nogil=True)
+def _rk4(tau, x, h, k1, mode, law, top, inp, A, T, surf, geom, th, thm, out, w):
+    """One classical RK4 step of size ``h`` from (tau, x) with ``k1 = f(tau, x)``."""
+    n = x.size
+    tmp = w.tmp
+    for i in range(n):
+        tmp[i] = x[i] + 0.5 * h * k1[i]
+    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k2, w)
+    for i in range(n):
+        tmp[i] = x[i] + 0.5 * h * w.k2[i]
+    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k3, w)
+    for i in range(n):
+        tmp[i] = x[i] + h * w.k3[i]
+    rhs(tau + h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k4, w)
+    for i in range(n):
+        out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * w.k2[i] + 2.0 * w.k3[i] + w.k4[i])
+
+
+@njit(cache=True, nogil=True)
+def _interpolate(x0, x1, f0, f1, h, s, out):
+    """The step's dense output: cubic Hermite of the state on ``x0, x1`` and the
+    derivatives ``f0, f1`` at its ends, at fraction ``s``."""
+    s2 = s * s
+    s3 = s2 * s
+    a0 = 2 * s3 - 3 * s2 + 1
+    b0 = (s3 - 2 * s2 + s) * h
+    a1 = -2 * s3 + 3 * s2
+    b1 = (s3 - s2) * h
+    for i in range(x0.size):
+        out[i] = a0 * x0[i] + b0 * f0[i] + a1 * x1[i] + b1 * f1[i]
+
+
+@njit(cache=True, nogil=True)
+def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, geom, th,
+            thm, w):
+    """Fraction of the step at which the smallest switching function reaches zero: the
+    Illinois method on the step's interpolant (``w.x_end`` is the state at the end)."""
+    s_lo = 0.0
+    g_lo = _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, w,
+                         w.g_lo)
+    s_hi = 1.0
+    g_hi = g_end
+    side = 0
+    for _ in range(80):
+        if s_hi - s_lo < 1e-10:
+            break
+        s = s_lo + (s_hi - s_lo) * g_lo / (g_lo - g_hi) if g_lo > 0.0 else 0.5 * (s_lo + s_hi)
+        if not (s_lo < s < s_hi):
+            s = 0.5 * (s_lo + s_hi)
+        _interpolate(x, w.x_end, k_start, k_end, h, s, w.x_try)
+        gs = _switching_at(tau + s * h, w.x_try, mode, law, top, inp, A, T, surf, geom, th,
+                           thm, w.tmp, w, w.g)
+        if gs >= 0.0:
+            s_lo, g_lo = s, gs
+            if side == -1:
+                g_hi *= 0.5
+            side = -1
+        else:
+            s_hi, g_hi = s, gs
+            if side == 1:
+                g_lo *= 0.5
+            side = 1
+    return s_hi
+
+
+@njit(cache=True, nogil=True)
+def _commit(tau0, x0, f0, tau1, x1, f1, law, top, surf, geom, th, thm, counters, na, nt,
+            start):
+    """After an accepted (sub)step: the blades write the surface they swept, and the bit
+    velocities go into the time history (model III).  ``start[4] == 1``: the step began
+    at an instantaneous perturbation; the rock it swept is written from the bit motion
+    before it, ``start[:4] = (U, V, Φ, Ω)`` (the end of the DDE's initial function), and the
+    flag is cleared."""
+    u0, v0, p0, o0 = bit_totals(tau0, x0, top, na, nt)
+    if start[4] > 0.0:
+        u0, v0, p0, o0 = start[0], start[1], start[2], start[3]
+        start[4] = 0.0
+    u1, v1, p1, o1 = bit_totals(tau1, x1, top, na, nt)
+    counters[C_WRITES] += write_step(surf, geom, law.offsets, tau0, tau1, u0, u1, p0, p1,
+                                     v0, v1, o0, o1)
+    if top.z_a > 0.0 or top.z_t > 0.0:
+        ib = 2 * na + 2 * nt - 1 if nt > 0 else 2 * na + 2 * nt + 1
+        push_velocities(th, thm, tau1, v1, o1, f1[2 * na - 1], f1[ib])
+
+
+@njit(cache=True, nogil=True, inline='always')
+def _any_contact(mode, groups):
+    for b in range(groups):
+        if mode[MD_CONTACT + b] == 1:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w):
+    """Choose the interface mode consistent with the state after an event (called with the
+    velocity that crossed zero already set exactly to zero)."""
+    na = A.shape[1]
+    nt = T.shape[1]
+    dx = w.k1
     for _ in range(4):
         old_ang = mode[MD_ANG]
         old_ax = mode[MD_AX]
-        ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
+        ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
         if nt > 0 and mode[MD_ANG] == ANG_SLIP and omb <= 0.0:
-            x[2 * na + 2 * nt - 1] = -P[P_OMEGA]
+            x[2 * na + 2 * nt - 1] = -top.omega_o
             mode[MD_ANG] = ANG_STICK
         if mode[MD_ANG] == ANG_STICK:
             if vb > 0.0:  # no drilling without rotation: inelastic stop of the bit
                 zb = A[CH_Z, na - 1]
                 for i in range(na):
                     x[na + i] -= vb / zb * A[CH_Z, i]
-                x[2 * na - 1] = -P[P_UPS]
+                x[2 * na - 1] = -top.upsilon_o
                 counters[C_IMPULSES] += 1
                 vb = 0.0
             if vb == 0.0:
                 mode[MD_AX] = AX_STUCK
-                rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
-                if aux[AX_WREQ] < 0.0:
+                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+                if w.aux[X_WREQ] < 0.0:
                     mode[MD_AX] = AX_UP
             # release check of the angular stick
-            rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
-            cut = aux[AX_CUT]
-            if mode[MD_AX] == AX_STUCK:
-                w_f = min(max(aux[AX_WREQ] - cut, 0.0), n_b_lam)
-            else:
-                w_f = 0.0
-            if aux[AX_TREQ] > cut + P[P_BETA] * w_f:
+            rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+            cut, cap = w.aux[X_CUT], w.aux[X_CAP]
+            w_f = stuck_wear_flat(w.aux[X_WREQ], cut, cap) if mode[MD_AX] == AX_STUCK \
+                else 0.0
+            if w.aux[X_TREQ] > bit_torque(cut, w_f, law.beta):
                 mode[MD_ANG] = ANG_SLIP
         if mode[MD_ANG] == ANG_SLIP:
             if vb == 0.0:
                 mode[MD_AX] = AX_STUCK
-                rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
-                w_f = aux[AX_WREQ] - aux[AX_CUT]
-                if mode[MD_CONTACT] == 1:
+                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+                w_f = w.aux[X_WREQ] - w.aux[X_CUT]
+                if _any_contact(mode, law.offsets.size):  # some blade on the rock
                     if w_f < 0.0:
                         mode[MD_AX] = AX_UP
-                    elif w_f > n_b_lam:
+                    elif w_f > w.aux[X_CAP]:
                         mode[MD_AX] = AX_DOWN
                 else:
-                    mode[MD_AX] = AX_DOWN if aux[AX_WREQ] > 0.0 else AX_UP
+                    mode[MD_AX] = AX_DOWN if w.aux[X_WREQ] > 0.0 else AX_UP
             elif vb > 0.0:
                 mode[MD_AX] = AX_DOWN
             else:
                 mode[MD_AX] = AX_UP
         if mode[MD_ANG] == old_ang and mode[MD_AX] == old_ax:
             break
-    rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
 
 
 @njit(cache=True, nogil=True)
-def _write_record(tau, stick_time, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt,
-                  ds, row):
-    """Fill one record row (channels R_*) from the current state."""
+def _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w):
+    """At a located event: the rule of the violated switching function, then settle."""
     na = A.shape[1]
     nt = T.shape[1]
-    ith = 2 * na + 2 * nt
-    rhs(tau, x, mode, P, IN, A, T, hist, meta, dx, aux, ra, ya, rt, yt, ds)
-    ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-    row[R_TAU] = tau
-    row[R_V] = vb
-    row[R_OMEGA] = omb
-    row[R_W] = aux[AX_W]
-    row[R_T] = aux[AX_T]
-    row[R_DELTA] = aux[AX_DELTA]
-    row[R_TAU1] = aux[AX_TAU1]
-    row[R_RES] = aux[AX_RES]
-    row[R_ANG] = mode[MD_ANG]
-    row[R_AX] = mode[MD_AX]
-    row[R_CONTACT] = mode[MD_CONTACT]
-    if nt > 0:
-        row[R_TSURF] = P[P_TO] + P[P_KTOP_T] * (x[ith] - x[2 * na]) \
-            + P[P_CTOP_T] * (x[ith + 1] - x[2 * na + nt])
-    else:
-        row[R_TSURF] = aux[AX_T]
-    row[R_OMSURF] = P[P_OMEGA] + x[ith + 1]
-    row[R_UBIT] = x[na - 1]
-    row[R_PHIBIT] = x[2 * na + nt - 1] if nt > 0 else x[ith]
-    row[R_VTOP] = P[P_UPS] + x[na]
-    row[R_STICK_TIME] = stick_time
+    g = w.g
+    k = 0
+    for j in range(1, g.size):
+        if g[j] < g[k]:
+            k = j
+    stop_rotation, stop_descent = transition(k, mode, w.aux[X_WREQ])
+    if stop_rotation:
+        x[2 * na + 2 * nt - 1] = -top.omega_o
+    if stop_descent:
+        x[2 * na - 1] = -top.upsilon_o
+    _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
 
 
 @njit(cache=True, nogil=True)
-def snapshot(tau_arr, x, mode, P, IN, A, T, hist, meta, row):
+def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, tau_arr,
+          start, w):
+    """Advance one step of size ``h``, cut at the events inside it (at most 20: a 20th is
+    accepted, no Zeno loop).  ``w.k1`` holds f(tau, x) on entry and on exit."""
+    na = A.shape[1]
+    nt = T.shape[1]
+    n = x.size
+    remaining = h
+    for sub in range(20):
+        _rk4(tau, x, remaining, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm,
+             w.x_end, w)
+        gmin = _switching_at(tau + remaining, w.x_end, mode, law, top, inp, A, T, surf, geom,
+                             th, thm, w.k4, w, w.g)
+        if gmin >= 0.0 or sub == 19:
+            _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, surf, geom, th,
+                    thm, counters, na, nt, start)
+            if mode[MD_ANG] == ANG_STICK:
+                tau_arr[1] += remaining
+            for i in range(n):
+                x[i] = w.x_end[i]
+                w.k1[i] = w.k4[i]
+            return tau + remaining
+        # an event inside the step: locate it on the interpolant, redo the step to it
+        for i in range(n):
+            w.k3[i] = w.k4[i]  # f at the step end, for the interpolant
+        s = _locate(tau, x, remaining, w.k1, w.k3, gmin, mode, law, top, inp, A, T, surf,
+                    geom, th, thm, w)
+        dt = s * remaining
+        _rk4(tau, x, dt, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm, w.x_end, w)
+        _switching_at(tau + dt, w.x_end, mode, law, top, inp, A, T, surf, geom, th, thm,
+                      w.k4, w, w.g)
+        _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, surf, geom, th, thm,
+                counters, na, nt, start)
+        for i in range(n):
+            x[i] = w.x_end[i]
+        if mode[MD_ANG] == ANG_STICK:
+            tau_arr[1] += dt
+        tau += dt
+        remaining -= dt
+        counters[C_EVENTS] += 1
+        _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
+                          w)
+        if remaining <= 1e-12 * h:
+            break
+    return tau
+
+
+@njit(cache=True, nogil=True)
+def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th, thm, w, row):
+    """Fill one record row (:data:`RECORD_CHANNELS`) from the current state."""
+    na = A.shape[1]
+    nt = T.shape[1]
+    d = 2 * na + 2 * nt
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, w)
+    ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
+    row[0] = tau
+    row[1] = vb
+    row[2] = omb
+    row[3] = w.aux[X_W]
+    row[4] = w.aux[X_T]
+    row[5] = w.aux[X_DEPTH]
+    row[6] = w.aux[X_DELAY]
+    row[7] = w.aux[X_RES]
+    row[8] = mode[MD_ANG]
+    row[9] = mode[MD_AX]
+    contact = 0
+    for b in range(law.offsets.size):
+        contact += mode[MD_CONTACT + b]
+    row[10] = 1.0 if contact > 0 else 0.0
+    if nt > 0:
+        row[11] = top.T_o + top.k_t * (x[d] - x[2 * na]) + top.c_t * (x[d + 1] - x[2 * na + nt])
+    else:
+        row[11] = w.aux[X_T]
+    row[12] = top.omega_o + x[d + 1]
+    row[13] = x[na - 1]
+    row[14] = x[2 * na + nt - 1] if nt > 0 else x[d]
+    row[15] = top.upsilon_o + x[na]
+    row[16] = stick_time
+    # hook load change [W*]: the hook pulls up, so it changes by minus the extra downward
+    # force on the top (the set force, or the pull of the line / imposed top)
+    line = top.k_a * (x[d + 2] - x[0]) + top.c_a * (inp[IN_BLOCK_VELOCITY] - top.upsilon_o
+                                                    - x[na])
+    row[17] = -(inp[IN_AXIAL_FORCE] + line / top.psi)
+    row[18] = ub
+    row[19] = phb
+    row[20] = top.upsilon_o * tau + x[d + 2]
+    row[21] = x[d]
+
+
+@njit(cache=True, nogil=True)
+def snapshot(tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, row):
     """The record row of the current state, without advancing."""
     na = A.shape[1]
     nt = T.shape[1]
-    _write_record(tau_arr[0], tau_arr[1], x, mode, P, IN, A, T, hist, meta,
-                  np.empty(x.size), np.zeros(N_AUX), np.empty(na), np.empty(na), np.empty(nt),
-                  np.empty(nt), np.zeros(3), row)
+    w = _work(x.size, na, nt, law.offsets.size)
+    _write_record(tau_arr[0], tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
+                  w, row)
 
 
 @njit(cache=True, nogil=True)
-def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, record,
-            record_every, n_rec, state_record):
+def advance(n_steps, h, tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
+            start, record, record_every, n_rec, state_record):
     """Advance ``n_steps`` steps of size ``h`` (dimensionless) in place.
 
-    ``tau_arr[0]`` is the current time and ``tau_arr[1]`` the accumulated time
-    with the bit stuck angularly (both updated; the latter is exact, from the
-    located events, not from samples).  Every ``record_every``
-    steps a row of :data:`N_RECORD` channels is written to ``record`` (and the
-    full state to ``state_record`` if it has rows); ``n_rec[0]`` counts the
-    rows written.  Returns on completion or at the first non-finite state
-    (``counters[C_STATUS] = STATUS_NONFINITE``, ``counters[C_BAD_INDEX]`` the
-    state index).
+    ``tau_arr[0]`` is the current time and ``tau_arr[1]`` the accumulated time with
+    the bit stuck angularly (both updated; the latter is exact, from the located
+    events).  ``start``: see :func:`_commit`.  Every ``record_every`` steps a row of
+    :data:`RECORD_CHANNELS` is written to
+    ``record`` (and the full state to ``state_record`` if it has rows); ``n_rec[0]``
+    counts the rows written.  Returns on completion or at the first non-finite state
+    (``counters[C_STATUS] = STATUS_NONFINITE``, ``counters[C_BAD_INDEX]`` the index).
     """
     na = A.shape[1]
     nt = T.shape[1]
     n = x.size
-    ith = 2 * na + 2 * nt
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    tmp = np.empty(n)
-    xs = np.empty(n)
-    xt = np.empty(n)
-    aux = np.zeros(N_AUX)
-    ra = np.empty(na)
-    ya = np.empty(na)
-    rt = np.empty(nt)
-    yt = np.empty(nt)
-    ds = np.zeros(3)
-    g = np.empty(4)
-    gl = np.empty(4)
+    d = 2 * na + 2 * nt
+    w = _work(n, na, nt, law.offsets.size)
     tau = tau_arr[0]
-    if P[P_DRIVE_TAU] <= 0.0:
-        x[ith + 1] = IN[IN_OMEGA_CMD] - P[P_OMEGA]
-    rhs(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds)
-    for _step in range(n_steps):
-        remaining = h
-        for _sub in range(20):  # at most 20 events per step
-            _rk4(tau, x, remaining, k1, mode, P, IN, A, T, hist, meta, xt, k2, k3, k4, tmp,
-                 aux, ra, ya, rt, yt, ds)
-            rhs(tau + remaining, xt, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya, rt, yt,
-                ds)
-            _switching(tau + remaining, xt, mode, P, aux, na, nt, g)
-            gmin = min(min(g[0], g[1]), min(g[2], g[3]))
-            if gmin >= 0.0 or _sub == 19:  # 20th event in one step: accept (no Zeno loop)
-                for i in range(n):
-                    x[i] = xt[i]
-                    k1[i] = k2[i]
-                if mode[MD_ANG] == ANG_STICK:
-                    tau_arr[1] += remaining
-                tau += remaining
-                break
-            # locate the crossing: Illinois method on min(g) over the fraction s
-            s_lo = 0.0
-            rhs(tau, x, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya, rt, yt, ds)
-            _switching(tau, x, mode, P, aux, na, nt, gl)
-            g_lo = min(min(gl[0], gl[1]), min(gl[2], gl[3]))
-            s_hi = 1.0
-            g_hi = gmin
-            side = 0
-            for _it in range(80):
-                if s_hi - s_lo < 1e-10:
-                    break
-                if g_lo > 0.0:
-                    s = s_lo + (s_hi - s_lo) * g_lo / (g_lo - g_hi)
-                else:
-                    s = 0.5 * (s_lo + s_hi)
-                if not (s_lo < s < s_hi):
-                    s = 0.5 * (s_lo + s_hi)
-                _rk4(tau, x, s * remaining, k1, mode, P, IN, A, T, hist, meta, xs, k2, k3, k4,
-                     tmp, aux, ra, ya, rt, yt, ds)
-                rhs(tau + s * remaining, xs, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya,
-                    rt, yt, ds)
-                _switching(tau + s * remaining, xs, mode, P, aux, na, nt, g)
-                gs = min(min(g[0], g[1]), min(g[2], g[3]))
-                if gs >= 0.0:
-                    s_lo = s
-                    g_lo = gs
-                    if side == -1:
-                        g_hi *= 0.5
-                    side = -1
-                else:
-                    s_hi = s
-                    g_hi = gs
-                    if side == 1:
-                        g_lo *= 0.5
-                    side = 1
-            dt = s_hi * remaining
-            _rk4(tau, x, dt, k1, mode, P, IN, A, T, hist, meta, xt, k2, k3, k4, tmp, aux, ra,
-                 ya, rt, yt, ds)
-            rhs(tau + dt, xt, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya, rt, yt, ds)
-            _switching(tau + dt, xt, mode, P, aux, na, nt, g)
-            for i in range(n):
-                x[i] = xt[i]
-            if mode[MD_ANG] == ANG_STICK:
-                tau_arr[1] += dt
-            tau += dt
-            remaining -= dt
-            counters[C_EVENTS] += 1
-            # apply the transition of the violated switching function
-            ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-            k = 0
-            for j in range(1, 4):
-                if g[j] < g[k]:
-                    k = j
-            if k == 3:
-                mode[MD_CONTACT] = 1 - mode[MD_CONTACT]
-                if mode[MD_AX] == AX_STUCK:
-                    mode[MD_AX] = AX_DOWN if aux[AX_WREQ] > 0.0 else AX_UP
-            elif k == 0:
-                if mode[MD_ANG] == ANG_SLIP:
-                    x[2 * na + 2 * nt - 1] = -P[P_OMEGA]
-                else:
-                    mode[MD_ANG] = ANG_SLIP
-            else:
-                if mode[MD_AX] == AX_STUCK:
-                    mode[MD_AX] = AX_UP if k == 1 else AX_DOWN
-                else:
-                    x[2 * na - 1] = -P[P_UPS]
-            ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-            push_sample(hist, meta, tau, ub, phb, vb, omb)
-            _settle(tau, x, mode, P, IN, A, T, hist, meta, k1, aux, ra, ya, rt, yt, ds,
-                    counters)
-            if remaining <= 1e-12 * h:
-                break
-        ub, vb, phb, omb = bit_totals(tau, x, P, na, nt)
-        push_sample(hist, meta, tau, ub, phb, vb, omb)
+    if top.drive_tau <= 0.0:  # stiff speed drive: the motor speed is the command
+        x[d + 1] = inp[IN_OMEGA_CMD] - top.omega_o
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
+    for _ in range(n_steps):
+        tau = _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
+                    tau_arr, start, w)
         counters[C_STEPS] += 1
         for i in range(n):
             if not np.isfinite(x[i]):
@@ -518,8 +669,8 @@ def advance(n_steps, h, tau_arr, x, mode, P, IN, A, T, hist, meta, counters, rec
         if record_every > 0 and (counters[C_STEPS] % record_every) == 0 \
                 and n_rec[0] < record.shape[0]:
             r = n_rec[0]
-            _write_record(tau, tau_arr[1], x, mode, P, IN, A, T, hist, meta, k2, aux, ra, ya,
-                          rt, yt, ds, record[r])
+            _write_record(tau, tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
+                          w, record[r])
             if state_record.shape[0] > r:
                 for i in range(n):
                     state_record[r, i] = x[i]

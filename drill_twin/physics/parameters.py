@@ -79,6 +79,10 @@ class BitRockGroups:
     psi : float
         Axial force scale ψ: the bit-force coefficient of the axial equation
         of motion, normalised by the reference (BHA) mass.
+    blade_angles : tuple of float
+        Angular positions of the n_b blades [rad]; empty for evenly spaced blades
+        (pitch 2π/n_b, the thesis's bit).  With uneven blades each blade cuts the
+        rock left by the blade ahead of it, one gap earlier (§6.2).
     """
 
     n_b: int
@@ -87,6 +91,7 @@ class BitRockGroups:
     W_o: float
     omega_o: float
     psi: float
+    blade_angles: tuple = ()
 
     def __post_init__(self):
         if isinstance(self.n_b, float) and not float(self.n_b).is_integer():
@@ -103,6 +108,46 @@ class BitRockGroups:
             raise ParameterError(
                 f'W_o = {self.W_o:g} does not exceed the wear-flat friction threshold '
                 f'n_b*lam = {self.n_b * self.lam:g} (eq. 2.3.6): the bit does not drill')
+        if self.blade_angles:
+            angles = tuple(float(a) for a in self.blade_angles)
+            if len(angles) != self.n_b:
+                raise ParameterError(f'{len(angles)} blade angles for n_b = {self.n_b} blades')
+            if not all(math.isfinite(a) for a in angles):
+                raise ParameterError('blade angles must be finite')
+            wrapped = sorted(a % (2 * math.pi) for a in angles)
+            gaps = [b - a for a, b in zip(wrapped, wrapped[1:])] + \
+                [wrapped[0] + 2 * math.pi - wrapped[-1]]
+            if min(gaps) <= 1e-6:
+                raise ParameterError('two blades at the same angle')
+            object.__setattr__(self, 'blade_angles', tuple(wrapped))
+
+    # --- the bit's blades on the rock --------------------------------------------------
+    @property
+    def uneven(self) -> bool:
+        """True when the blades are not evenly spaced."""
+        if not self.blade_angles:
+            return False
+        return max(self.blade_gaps) - min(self.blade_gaps) > 1e-12
+
+    @property
+    def blade_gaps(self) -> tuple:
+        """Angle from each blade to the blade ahead of it (the one that cut its rock
+        last) [rad]; all 2π/n_b for an even bit."""
+        if not self.blade_angles:
+            return (2.0 * math.pi / self.n_b,) * self.n_b
+        a = self.blade_angles
+        return tuple((a[(i + 1) % len(a)] - a[i]) % (2 * math.pi) or 2 * math.pi
+                     for i in range(len(a)))
+
+    @property
+    def blade_delays(self) -> tuple:
+        """Steady delay of each blade, gap/ω_o (all τ_1,0 for an even bit)."""
+        return tuple(g / self.omega_o for g in self.blade_gaps)
+
+    @property
+    def min_delay(self) -> float:
+        """Shortest steady delay (the step must resolve it)."""
+        return min(self.blade_delays)
 
     # --- steady state, eqs 2.3.6, 2.4.5, 2.4.6 -------------------------------------
     @property

@@ -15,21 +15,48 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import kernel as K
-from .delay_history import new_history, push_sample
+from .bottom_surface import fill_steady, new_surface, nodes_for
+from .interface_law import ANG_SLIP, AX_DOWN, AX_UP, MD_ANG, MD_AX, MD_CONTACT
 from .models import StringModel, max_stable_step
 from .parameters import BitRockGroups, ParameterError
+from .time_history import new_time_history, push_velocities
 
-__all__ = ['Simulation', 'Trajectory', 'SimulationDiverged']
+__all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling']
 
-_RECORD_NAMES = {
-    'tau': K.R_TAU, 'bit_axial_speed': K.R_V, 'bit_angular_speed': K.R_OMEGA,
-    'weight_on_bit': K.R_W, 'torque_on_bit': K.R_T, 'depth_of_cut': K.R_DELTA,
-    'delay': K.R_TAU1, 'delay_residual': K.R_RES, 'angular_stick': K.R_ANG,
-    'axial_mode': K.R_AX, 'contact': K.R_CONTACT, 'surface_torque': K.R_TSURF,
-    'surface_speed': K.R_OMSURF, 'bit_axial_perturbation': K.R_UBIT,
-    'bit_angle_perturbation': K.R_PHIBIT, 'top_axial_speed': K.R_VTOP,
-    'stick_time': K.R_STICK_TIME,
-}
+_RECORD_NAMES = {name: i for i, name in enumerate(K.RECORD_CHANNELS)}
+
+
+def bit_law(groups: BitRockGroups):
+    """The kernel's :class:`~drill_twin.physics.kernel.Law`, the surface period and the
+    smallest blade gap: an even bit is one blade group of n_b blades on a period of one
+    pitch 2π/n_b; an uneven bit has one group per blade on the full circle."""
+    if groups.uneven:
+        offsets = np.array(groups.blade_angles, float)
+        weights = np.ones(groups.n_b)
+        period = 2.0 * math.pi
+    else:
+        offsets = np.zeros(1)
+        weights = np.full(1, float(groups.n_b))
+        period = 2.0 * math.pi / groups.n_b
+    law = K.Law(float(groups.lam), float(groups.beta), offsets, weights)
+    return law, period, min(groups.blade_gaps)
+
+
+def top_coupling(model: StringModel, groups: BitRockGroups, drive_time_constant: float = 0.0):
+    """The kernel's :class:`~drill_twin.physics.kernel.Top` of a model at an operating
+    point."""
+    tors = model.torsional
+    z_a = tau_a = z_t = tau_t = 0.0
+    if model.delayed_damping is not None:
+        z_a, tau_a, z_t, tau_t = model.delayed_damping
+    return K.Top(omega_o=float(groups.omega_o), upsilon_o=float(groups.upsilon_o),
+                 W_o=float(groups.W_o), T_o=float(groups.T_o), psi=float(model.psi),
+                 k_t=float(tors.k_top) if tors is not None else 0.0,
+                 c_t=float(tors.c_top) if tors is not None else 0.0,
+                 m_t=float(tors.m_top) if tors is not None else 0.0,
+                 k_a=float(model.axial.k_top), c_a=float(model.axial.c_top),
+                 drive_tau=float(drive_time_constant), z_a=float(z_a), tau_a=float(tau_a),
+                 z_t=float(z_t), tau_t=float(tau_t))
 
 
 class SimulationDiverged(RuntimeError):
@@ -75,18 +102,19 @@ class Simulation:
     drive_time_constant : float
         First-order lag of the surface speed drive following its command
         (units t*); 0 = ideal stiff speed drive.
-    history_capacity : int, optional
-        Ring-buffer samples; default 16 nominal delays worth of steps.
+    surface_nodes : int, optional
+        Nodes of the bottom surface over its period; default four per nominal step
+        of rotation (:func:`~drill_twin.physics.bottom_surface.nodes_for`).
     """
 
     def __init__(self, model: StringModel, groups: BitRockGroups, time_step: float,
-                 drive_time_constant: float = 0.0, history_capacity: int | None = None):
+                 drive_time_constant: float = 0.0, surface_nodes: int | None = None):
         if not (math.isfinite(time_step) and time_step > 0):
             raise ParameterError(f'time_step must be finite and > 0, got {time_step!r}')
-        if time_step > 0.25 * groups.tau_10:
+        if time_step > 0.25 * groups.min_delay:
             raise ParameterError(
-                f'time_step {time_step:g} is too large for the delay tau_10 = {groups.tau_10:g}'
-                ' (need <= tau_10/4)')
+                f'time_step {time_step:g} is too large for the delay {groups.min_delay:g}'
+                ' (need <= a quarter of the shortest blade delay)')
         limit = max_stable_step(model, cap=max(time_step, 5e-3))
         if time_step > limit:
             raise ParameterError(
@@ -97,45 +125,35 @@ class Simulation:
         self.h = float(time_step)
         self.A = K.pack_chain(model.axial)
         self.T = K.pack_chain(model.torsional)
-        tors = model.torsional
-        P = np.zeros(K.N_PARAMS)
-        P[K.P_NB] = groups.n_b
-        P[K.P_LAM] = groups.lam
-        P[K.P_BETA] = groups.beta
-        P[K.P_OMEGA] = groups.omega_o
-        P[K.P_UPS] = groups.upsilon_o
-        P[K.P_WO] = groups.W_o
-        P[K.P_TO] = groups.T_o
-        P[K.P_PSI] = model.psi
-        P[K.P_KTOP_A] = model.axial.k_top
-        P[K.P_CTOP_A] = model.axial.c_top
-        if tors is not None:
-            P[K.P_KTOP_T] = tors.k_top
-            P[K.P_CTOP_T] = tors.c_top
-            P[K.P_MTOP_T] = tors.m_top
-        P[K.P_DRIVE_TAU] = drive_time_constant
-        extra_memory = 0.0
-        if model.delayed_damping is not None:
-            if self.A.shape[1] != 1 or self.T.shape[1] != 1:
-                raise ParameterError('delayed dash-pots need single-mass chains (model III)')
-            P[K.P_ZDEL_A], P[K.P_TDEL_A], P[K.P_ZDEL_T], P[K.P_TDEL_T] = model.delayed_damping
-            extra_memory = max(model.delayed_damping[1], model.delayed_damping[3])
-        self.P = P
+        self.law, period, min_gap = bit_law(groups)
+        self.top = top_coupling(model, groups, drive_time_constant)
+        if model.delayed_damping is not None and (self.A.shape[1] != 1 or self.T.shape[1] != 1):
+            raise ParameterError('delayed dash-pots need single-mass chains (model III)')
         self.inputs = np.zeros(K.N_INPUTS)
         self.inputs[K.IN_OMEGA_CMD] = groups.omega_o
+        self.inputs[K.IN_BLOCK_VELOCITY] = groups.upsilon_o
         na, nt = self.A.shape[1], self.T.shape[1]
         self.n_axial, self.n_torsional = na, nt
-        self.x = np.zeros(2 * na + 2 * nt + 2)
-        self.mode = np.array([K.ANG_SLIP, K.AX_DOWN, 1], np.int64)
+        self.x = np.zeros(2 * na + 2 * nt + 3)
+        self.mode = np.zeros(MD_CONTACT + self.law.offsets.size, np.int64)
+        self.mode[MD_ANG], self.mode[MD_AX] = ANG_SLIP, AX_DOWN
+        self.mode[MD_CONTACT:] = 1
         self.tau = np.zeros(2)  # [τ, accumulated angular stick time]
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
-        cap = history_capacity or int((16 * groups.tau_10 + 2 * extra_memory) / self.h) + 64
-        self.hist, self.meta = new_history(cap)
-        # nominal motion before τ = 0 (initial function of the DDE)
-        for k in range(int((1.5 * groups.tau_10 + extra_memory) / self.h) + 2, -1, -1):
-            t = -k * self.h
-            push_sample(self.hist, self.meta, t, groups.upsilon_o * t, groups.omega_o * t,
-                        groups.upsilon_o, groups.omega_o)
+        # bit motion at the end of the initial function, when a perturbation jumps from it
+        self.start_bit = np.zeros(5)
+        # the bottom surface of steady drilling (the initial function of the DDE)
+        nodes = surface_nodes or nodes_for(period, groups.omega_o * self.h, min_gap)
+        self.surface, self.geom = new_surface(period, nodes, min_gap)
+        fill_steady(self.surface, self.geom, self.law.offsets, groups.upsilon_o,
+                    groups.omega_o)
+        # the velocity history of the constant delays of lumped model III
+        memory = max(self.top.tau_a, self.top.tau_t)
+        self.th, self.thm = new_time_history(int(1.5 * memory / self.h) + 64 if memory else 4)
+        if memory:
+            for k in range(int(1.2 * memory / self.h) + 2, -1, -1):
+                push_velocities(self.th, self.thm, -k * self.h, groups.upsilon_o,
+                                groups.omega_o, 0.0, 0.0)
 
     # --- state access -------------------------------------------------------------
     @classmethod
@@ -160,9 +178,8 @@ class Simulation:
         return float(self.tau[0])
 
     def slices(self):
-        na, nt = self.n_axial, self.n_torsional
-        return {'u': slice(0, na), 'v': slice(na, 2 * na),
-                'phi': slice(2 * na, 2 * na + nt), 'omega': slice(2 * na + nt, 2 * na + 2 * nt)}
+        """Named slices of the state vector (:func:`drill_twin.physics.kernel.layout`)."""
+        return K.layout(self.n_axial, self.n_torsional)
 
     def perturb(self, u: float = 0.0, v: float = 0.0, phi: float = 0.0, omega: float = 0.0,
                 where: str = 'bit'):
@@ -196,7 +213,18 @@ class Simulation:
                 raise ParameterError(f"perturbation 'where' must be bit, all or smooth, "
                                      f'got {where!r}')
         if self.groups.upsilon_o + self.x[sl['v'].stop - 1] < 0:
-            self.mode[K.MD_AX] = K.AX_UP
+            self.mode[MD_AX] = AX_UP
+        self._jump_from_initial_function()
+
+    def _jump_from_initial_function(self):
+        """A perturbation at τ = 0 jumps from the DDE's initial function (the nominal
+        motion up to τ = 0): the rock swept by the first step is written from that motion,
+        not from the perturbed state (the convention of the thesis and of the delay
+        formulation; an instantaneous jump of the bit angle would otherwise leave a sector
+        of rock uncut)."""
+        if self.time == 0.0 and self.counters[K.C_STEPS] == 0:
+            g = self.groups
+            self.start_bit[:] = (0.0, g.upsilon_o, 0.0, g.omega_o, 1.0)
 
     def set_perturbation_state(self, y):
         """Set the perturbation state ``[u, u', φ, φ']`` of all DOFs (the layout of
@@ -206,6 +234,7 @@ class Simulation:
         if y.shape != (n,) or not np.all(np.isfinite(y)):
             raise ParameterError(f'perturbation state must be {n} finite numbers')
         self.x[:n] = y
+        self._jump_from_initial_function()
 
     def set_surface_speed(self, omega: float):
         """Command the dimensionless surface (motor) speed."""
@@ -219,11 +248,13 @@ class Simulation:
             raise ParameterError('axial top force must be finite')
         self.inputs[K.IN_AXIAL_FORCE] = force
 
-    def set_motor_torque(self, torque: float):
-        """Extra torque on the top torsional DOF, units C (external torque drive)."""
-        if not math.isfinite(torque):
-            raise ParameterError('motor torque must be finite')
-        self.inputs[K.IN_MOTOR_TORQUE] = torque
+    def set_block_velocity(self, velocity: float):
+        """Command the block (top of an imposed-velocity string, or drum of a hoist) to move
+        down at ``velocity`` (units d*/t*; the nominal ROP υ_o keeps it on the steady
+        motion)."""
+        if not math.isfinite(velocity):
+            raise ParameterError('block velocity must be finite')
+        self.inputs[K.IN_BLOCK_VELOCITY] = velocity
 
     # --- running ---------------------------------------------------------------------
     def advance(self, n_steps: int, record_every: int = 0, record_state: bool = False):
@@ -232,9 +263,9 @@ class Simulation:
         record = np.zeros((n_rows, K.N_RECORD))
         state = np.zeros((n_rows if record_state else 0, self.x.size))
         n_rec = np.zeros(1, np.int64)
-        K.advance(int(n_steps), self.h, self.tau, self.x, self.mode, self.P, self.inputs,
-                  self.A, self.T, self.hist, self.meta, self.counters, record,
-                  int(record_every), n_rec, state)
+        K.advance(int(n_steps), self.h, self.tau, self.x, self.mode, self.law, self.top,
+                  self.inputs, self.A, self.T, self.surface, self.geom, self.th, self.thm,
+                  self.counters, self.start_bit, record, int(record_every), n_rec, state)
         if self.counters[K.C_STATUS] != K.STATUS_OK:
             idx = int(self.counters[K.C_BAD_INDEX])
             part = next((k for k, s in self.slices().items() if s.start <= idx < s.stop),
@@ -282,13 +313,20 @@ class Simulation:
     def snapshot(self) -> dict:
         """Current recorded channels (dimensionless), without advancing."""
         row = np.zeros(K.N_RECORD)
-        K.snapshot(self.tau, self.x, self.mode, self.P, self.inputs, self.A, self.T, self.hist,
-                   self.meta, row)
+        K.snapshot(self.tau, self.x, self.mode, self.law, self.top, self.inputs, self.A,
+                   self.T, self.surface, self.geom, self.th, self.thm, row)
         return {name: float(row[i]) for name, i in _RECORD_NAMES.items()}
 
     @property
     def history_overflows(self) -> int:
-        return int(self.meta[2])
+        """Reads of the velocity history before its oldest sample (model III; 0 when the
+        capacity is right).  The bottom surface itself cannot overflow."""
+        return int(self.thm[2])
+
+    @property
+    def surface_writes(self) -> int:
+        """Surface nodes written so far (the blades' passes over the rock)."""
+        return int(self.counters[K.C_WRITES])
 
     @property
     def event_count(self) -> int:

@@ -8,7 +8,10 @@ own handlers shut the node down (:func:`drill_twin.ros.common.run_node`).
 from __future__ import annotations
 
 import importlib
+import logging
+import os
 import signal
+import sys
 
 __all__ = ['install_quiet_signals', 'rclpy_took_over', 'twin_node', 'soft_torque_node',
            'mcap_recorder']
@@ -35,8 +38,15 @@ def rclpy_took_over():
 
 
 def _run(module: str) -> int:
+    """Run a node's ``main`` and leave at once: the node has closed its recording and shut
+    ROS down, so the interpreter's own teardown (about half a second of module and JIT
+    clean-up) is skipped, which keeps a signalled node's exit well under a second."""
     install_quiet_signals()
-    return importlib.import_module(module).main()
+    code = importlib.import_module(module).main()
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code if isinstance(code, int) else 0)
 
 
 def twin_node() -> int:
