@@ -8,6 +8,7 @@ Sub-commands
 ``stability``  characteristic roots / critical speed of the linearised model
 ``demo``       the main job of ``make demo``: the benchmark run(s) with outputs
 ``reproduce``  regenerate the thesis's computable figures (docs/reproduction.md)
+``scenario``   run a timeline of rig operations (connection, start-up ...), draw them
 ``mcap``       inspect / recover / export / plot a recording
 ``replay``     republish a recording with its timing, or resimulate it
 """
@@ -27,6 +28,7 @@ import numpy as np
 
 from .console import print_summary
 from .io.mcap_reader import RecordingError
+from .operations.cli import add_parsers as add_operations_parsers
 from .physics.digital_twin import SetpointError
 from .physics.parameters import ParameterError
 from .physics.scenario import Scenario, load_scenario
@@ -170,6 +172,11 @@ def cmd_config(args) -> int:
     return 0
 
 
+#: field units: pound-force [N], foot [m], foot-pound-force [N m], pounds per US gallon
+#: [kg/m^3]
+LBF, FT, FT_LBF, PPG = 4.4482216152605, 0.3048, 1.3558179483314, 119.826427
+
+
 def cmd_params(args) -> int:
     scenario = load_scenario(args.config, args.set)
     g = scenario.groups
@@ -190,12 +197,34 @@ def cmd_params(args) -> int:
                     * sys_.density_kg_m3 / sys_.young_modulus_Pa,
                     'G_phi': (sys_.pipe_length_m + sys_.bha_length_m) ** 2 / s.time_s ** 2
                     * sys_.density_kg_m3 / sys_.shear_modulus_Pa})
+        # the same operating point in the units a driller reads (API field units)
+        rop = g.upsilon_o * s.speed_m_s
+        out['field_units'] = {
+            'surface_speed_rpm': g.omega_o / s.time_s * 60.0 / (2.0 * math.pi),
+            'weight_on_bit_klbf': g.W_o * s.force_N / LBF / 1e3,
+            'torque_on_bit_kft_lbf': g.T_o * s.torque_Nm / FT_LBF / 1e3,
+            'rate_of_penetration_ft_h': rop * 3600.0 / FT,
+            'string_weight_in_mud_klbf': sys_.buoyed_weight_N() / LBF / 1e3,
+            'string_length_ft': sys_.total_length_m / FT,
+            'mud_density_ppg': sys_.mud_density_kg_m3 / PPG}
     print(json.dumps(out, indent=None if args.json else 2))
     return 0
 
 
 def cmd_stability(args) -> int:
     from .stability.spectrum import critical_speed, rightmost_roots
+    if args.action == 'variable-pitch':
+        from .stability.variable_pitch import plot_variable_pitch, variable_pitch_charts
+        out = Path(args.out or 'variable_pitch.png')
+        out.parent.mkdir(parents=True, exist_ok=True)
+        n = (30, 20) if args.quick else (120, 80)
+        results = variable_pitch_charts(n=n, workers=args.workers)
+        plot_variable_pitch(results, out)
+        numbers = {f'{d:g} deg': {k: v for k, v in r.items() if k != 'chart'}
+                   for d, r in results.items()}
+        out.with_suffix('.json').write_text(json.dumps(numbers, indent=1))
+        print(json.dumps({'png': str(out), **numbers}, indent=None if args.json else 1))
+        return 0
     if args.action == 'gallery':
         from .stability.gallery import make_gallery
         summary = make_gallery(args.out or 'docs/figures', args.figure, quick=args.quick,
@@ -419,7 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser('stability', help='linear stability of the steady state')
     s.add_argument('action', choices=['roots', 'critical-speed', 'chart', 'discretization',
-                                      'gallery'])
+                                      'gallery', 'variable-pitch'])
     s.add_argument('--config', help='YAML file, or a name in config/')
     s.add_argument('--set', action='append', default=[], metavar='KEY=VALUE')
     s.add_argument('--figure', action='append', help='gallery: thesis figure id (repeatable)')
@@ -456,6 +485,7 @@ def build_parser() -> argparse.ArgumentParser:
                    'not a terminal')
     s.set_defaults(func=cmd_reproduce)
     add_recording_parsers(sub)
+    add_operations_parsers(sub)
     return p
 
 

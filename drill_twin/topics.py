@@ -80,6 +80,7 @@ TOPICS = (
     Topic('surface_speed_setpoint', FLOAT64, SETPOINT, 'setpoint'),
     Topic('hook_load_setpoint', FLOAT64, SETPOINT, 'setpoint'),
     Topic('surface_speed_command', FLOAT64, COMMAND, 'setpoint'),
+    Topic('block_velocity_setpoint', FLOAT64, SETPOINT, 'setpoint'),
     Topic('bit/velocity', 'geometry_msgs/msg/TwistStamped', SENSOR, 'measurement',
           lambda m, st: {'header': _header(st), 'twist': {
               'linear': {'x': float(m['bit_axial_speed_m_s'])},
@@ -95,6 +96,8 @@ TOPICS = (
           lambda m, st: {'data': bool(m['stuck'])}),
     Topic('bit/stick_slip_severity', FLOAT64, SENSOR, 'measurement',
           _float('stick_slip_severity')),
+    Topic('bit/height_above_bottom', FLOAT64, SENSOR, 'measurement',
+          _float('bit_above_bottom_m')),
     Topic('surface/top_drive_speed', FLOAT64, SENSOR, 'measurement',
           _float('surface_speed_rad_s')),
     Topic('surface/torque', FLOAT64, SENSOR, 'measurement', _float('surface_torque_Nm')),

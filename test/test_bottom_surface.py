@@ -125,20 +125,27 @@ def test_stopped_rotary_for_ten_minutes_in_bounded_memory(on_bottom):
         sim.set_axial_top_force(-sc.groups.W_o)   # then hold: the weight is on the hook
     sim.set_surface_speed(0.0)
     sizes = (sim.surface.nbytes, sim.th.nbytes)
-    steps = int(600.0 / sc.scales.time_s / sim.h)
+    minute = 60.0 / sc.scales.time_s
+    first = sim.run(minute, record_interval=0.05)
     tracemalloc.start()
-    sim.advance(steps // 10)
+    sim.advance(int(4 * minute / sim.h))
     before = tracemalloc.get_traced_memory()[0]
-    sim.advance(steps - steps // 10)
+    sim.advance(int(4 * minute / sim.h))
     after = tracemalloc.get_traced_memory()[0]
     tracemalloc.stop()
+    last = sim.run(minute, record_interval=0.05)
     snap = sim.snapshot()
     assert sim.history_overflows == 0
     assert (sim.surface.nbytes, sim.th.nbytes) == sizes
     assert after - before < 100_000
     assert abs(snap['surface_speed']) < 1e-12          # the rotary is stopped
-    assert abs(snap['bit_angular_speed']) < 1e-3        # and the bit with it
-    if on_bottom:
+    if on_bottom:  # the rock holds the bit: stuck, in contact
+        assert abs(snap['bit_angular_speed']) < 1e-3
         assert snap['contact'] == 1.0
     else:
+        # nothing holds a bit off bottom: the released string swings freely about a fixed
+        # angle (benchmark torsional damping ratio ~1e-4) — no drift, no energy gained
+        assert first.contact.max() == 0.0 and last.contact.max() == 0.0
+        assert abs(last.bit_angle.mean() - first.bit_angle.mean()) < 0.5
+        assert np.ptp(last.bit_angle) <= np.ptp(first.bit_angle)
         assert snap['depth_of_cut'] < 0.0               # above the rock

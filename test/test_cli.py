@@ -104,3 +104,16 @@ def test_stability_gallery_quick(tmp_path):
         assert (tmp_path / f'fig_{fig}.png').stat().st_size > 0
     summary = json.loads((tmp_path / 'stability_gallery.json').read_text())
     assert summary['5.1.2 RGD-2, strict (Re λ > 1e-9)']['stable_fraction'] == 0.0
+
+
+def test_params_in_field_units(capsys):
+    """API field units (1 lbf = 4.4482216152605 N, 1 ft = 0.3048 m) of the benchmark point:
+    120 rpm and 60.5 kN."""
+    assert main(['params', '--config', 'benchmark_fem', '--json']) == 0
+    p = json.loads(capsys.readouterr().out)
+    f = p['field_units']
+    assert f['surface_speed_rpm'] == pytest.approx(12.57 * 60 / (2 * math.pi), rel=1e-12)
+    assert f['weight_on_bit_klbf'] == pytest.approx(60.5e3 / 4.4482216152605 / 1e3, rel=1e-9)
+    assert f['rate_of_penetration_ft_h'] == pytest.approx(
+        p['rate_of_penetration_m_s'] * 3600 / 0.3048, rel=1e-12)
+    assert f['string_length_ft'] == pytest.approx(1200 / 0.3048)

@@ -100,3 +100,20 @@ def test_lumped_and_velocity_top_models(overrides, window):
     rate = measured_growth_rate(sc.model, sc.groups, roots[0], window, h=2e-3,
                                 amplitude=1e-9)
     assert rate == pytest.approx(roots[0].real, rel=0.02)
+
+
+@pytest.mark.parametrize('config, overrides, window', [
+    ('axial_chain_2dof', ['model.n=2', 'groups.b=4', 'groups.n_b=3',
+                          'bit.blade_angles_deg=[0, 100, 230]'], (10.0, 40.0)),
+    ('benchmark_fem', ['bit.blade_angles_deg=[0, 50, 120, 190, 250, 300]'], (20.0, 45.0)),
+])
+def test_uneven_blades_grow_at_the_rate_of_the_multi_delay_root(config, overrides, window):
+    """Blades at uneven angles: each blade group of the bottom surface reads the rock of the
+    blade ahead of it; the early growth of the nonlinear run equals the rightmost root of the
+    multi-delay linearisation (one delay per blade gap)."""
+    sc = load_scenario(config, overrides)
+    assert sc.groups.uneven
+    roots = rightmost_roots(sc.model, sc.groups, count=4).roots
+    rate = measured_growth_rate(sc.model, sc.groups, roots[0], window, h=2e-3,
+                                amplitude=1e-9)
+    assert rate == pytest.approx(roots[0].real, rel=0.02)

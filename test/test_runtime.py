@@ -128,7 +128,7 @@ def test_settings_tables_ranges_and_checks():
             assert 'outside' in check(s, s.high * 2 + 1)
             assert 'number' in check(s, 'abc')
     ro = {s.name for s in TWIN_SETTINGS if s.read_only}
-    assert ro == {'config', 'overrides', 'drive_time_constant_s', 'mud_density_kg_m3',
+    assert ro == {'config', 'overrides', 'scenario', 'drive_time_constant_s',
                   'as_fast_as_possible', 'record_path', 'record_chunk_period_s'}
 
 

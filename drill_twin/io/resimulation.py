@@ -23,7 +23,8 @@ __all__ = ['resimulate']
 
 _APPLY = {'surface_speed_setpoint': 'set_surface_speed',
           'surface_speed_command': 'set_surface_speed',
-          'hook_load_setpoint': 'set_hook_load'}
+          'hook_load_setpoint': 'set_hook_load',
+          'block_velocity_setpoint': 'set_block_velocity'}
 
 
 def _leaves(fields: dict, prefix=''):

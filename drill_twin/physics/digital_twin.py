@@ -39,33 +39,43 @@ class DigitalTwin:
     ----------
     scenario : Scenario
         An SI scenario (``units: si``).
-    mud_density_kg_m3 : float
-        Mud density for the buoyed string weight (hook load ↔ WOB).
+    mud_density_kg_m3 : float, optional
+        Mud density for the buoyed string weight (hook load ↔ WOB); default the
+        configuration's ``drill_string.mud_density_kg_m3``.
     drive_time_constant_s : float
         First-order lag of the speed drive [s]; 0 = stiff speed drive.
     max_surface_speed_rad_s : float
         Set-points above are rejected as absurd.
     severity_window_s : float
         Sliding window of the stick-slip severity [s].
+    start_above_bottom_m : float, optional
+        Start at rest, string untwisted, the bit this far above a flat bottom, the rotary
+        stopped and the hook carrying the whole string (:func:`drill_twin.physics.statics.
+        rest_state`); default: steady drilling with the configuration's perturbation.
     time_step_s : float, optional
         Integration step [s]; default the scenario's.  The twin node passes a step
         slightly shorter than the configured one so that a publish period is a whole
         number of steps (:func:`aligned_step`).
     """
 
-    def __init__(self, scenario: Scenario, mud_density_kg_m3: float = 1200.0,
+    def __init__(self, scenario: Scenario, mud_density_kg_m3: float | None = None,
                  drive_time_constant_s: float = 0.0, max_surface_speed_rad_s: float = 40.0,
-                 severity_window_s: float = 10.0, time_step_s: float | None = None):
+                 severity_window_s: float = 10.0, time_step_s: float | None = None,
+                 start_above_bottom_m: float | None = None):
         if not scenario.is_si:
             raise ParameterError('the digital twin needs an SI configuration (units: si)')
         self.scenario = scenario
         self.scales = scenario.scales
+        if mud_density_kg_m3 is None:
+            mud_density_kg_m3 = scenario.system.mud_density_kg_m3
         self._settings = {'mud_density_kg_m3': float(mud_density_kg_m3),
                           'drive_time_constant_s': float(drive_time_constant_s),
                           'max_surface_speed_rad_s': float(max_surface_speed_rad_s),
                           'severity_window_s': float(severity_window_s)}
         if time_step_s is not None:
             self._settings['time_step_s'] = float(time_step_s)
+        if start_above_bottom_m is not None:
+            self._settings['start_above_bottom_m'] = float(start_above_bottom_m)
         # with the configuration's initial perturbation, as in the offline run (a real rig
         # is never exactly at the steady state)
         self.sim = Simulation.from_scenario(
@@ -76,9 +86,22 @@ class DigitalTwin:
         self.nominal_wob_N = scenario.groups.W_o * self.scales.force_N
         self.hook_load_N = self.string_weight_N - self.nominal_wob_N
         self.surface_speed_setpoint = scenario.groups.omega_o / self.scales.time_s
+        self.block_velocity_setpoint = scenario.groups.upsilon_o * self.scales.speed_m_s
+        self.axial_top = scenario.raw['model'].get('axial_top') or 'hook_load'
         self.rejected = 0
         self._window = deque()
         self._window_s = float(severity_window_s)
+        if start_above_bottom_m is not None:
+            self._start_at_rest(start_above_bottom_m)
+
+    def _start_at_rest(self, gap_m: float):
+        from .statics import rest_state
+        if not (math.isfinite(gap_m) and 0.0 < gap_m <= 1000.0):
+            raise ParameterError(f'start_above_bottom_m {gap_m!r} m outside (0, 1000] m')
+        rest_state(self.sim, gap_m / self.scales.depth_m)
+        self.surface_speed_setpoint = 0.0
+        self.block_velocity_setpoint = 0.0
+        self.hook_load_N = self.string_weight_N
 
     def warm_up(self):
         """Compile and run the kernels once (on a copy) before a real-time loop starts."""
@@ -96,11 +119,34 @@ class DigitalTwin:
         self.surface_speed_setpoint = value
 
     def set_hook_load(self, hook_load_N: float):
-        """Hook load [N]; must lie in [0, buoyed string weight] (WOB >= 0)."""
+        """Hook load [N] of a constant-hook-load top; must lie in [0, buoyed string weight]
+        (WOB >= 0).  A hoist's hook load follows from the block: use an autodriller
+        (:class:`drill_twin.operations.driller.Autodriller`)."""
+        if self.has_block:
+            self.rejected += 1
+            raise SetpointError(f'this string hangs on a {self.axial_top} top: its hook load '
+                                'follows the block (set the block velocity)')
         value = self._checked('hook load', hook_load_N, 0.0, self.string_weight_N, 'N')
         self.sim.set_axial_top_force((self.string_weight_N - self.nominal_wob_N - value)
                                      / self.scales.force_N)
         self.hook_load_N = value
+
+    @property
+    def has_block(self) -> bool:
+        """True when the top of the string hangs on a hoist or moves with an imposed block
+        velocity (block velocity set-points), False for a constant hook load."""
+        return self.axial_top in ('hoist', 'velocity')
+
+    def set_block_velocity(self, velocity_m_s: float):
+        """Block (drum) velocity [m/s, down-hole positive]; for a hoist or imposed-velocity
+        top only."""
+        if not self.has_block:
+            self.rejected += 1
+            raise SetpointError('block velocity needs model.axial_top hoist or velocity (this '
+                                'string hangs on a constant hook load: set the hook load)')
+        value = self._checked('block velocity', velocity_m_s, -10.0, 10.0, 'm/s')
+        self.sim.set_block_velocity(value / self.scales.speed_m_s)
+        self.block_velocity_setpoint = value
 
     def _checked(self, name, value, lo, hi, unit):
         try:
@@ -144,17 +190,30 @@ class DigitalTwin:
 
     # --- outputs -------------------------------------------------------------------
     def measurements(self) -> dict:
-        """Bit and surface measurements in SI at the current time."""
+        """Bit and surface measurements in SI at the current time: the sample of a tick (it
+        enters the sliding window of the stick-slip severity, once per simulated instant)."""
+        return self._measure(feed_window=True)
+
+    def peek(self) -> dict:
+        """The same measurements without counting them as a tick's sample (for a controller
+        or a driller that looks between ticks)."""
+        return self._measure(feed_window=False)
+
+    def _measure(self, feed_window: bool) -> dict:
         snap = self.sim.snapshot()
         s = self.scales
         omega = snap['bit_angular_speed'] / s.time_s
         now = self.time_s
-        self._window.append((now, omega))
-        while self._window and self._window[0][0] < now - self._window_s:
-            self._window.popleft()
-        speeds = np.array([w for _, w in self._window])
+        window = self._window
+        if feed_window and (not window or window[-1][0] != now):
+            window.append((now, omega))
+            while window and window[0][0] < now - self._window_s:
+                window.popleft()
+        speeds = np.array([w for _, w in window] if window else [omega])
         mean = speeds.mean()
-        severity = float((speeds.max() - speeds.min()) / (2 * mean)) if mean > 0 else math.inf
+        # (max - min)/(2 mean); a bit that has not turned over the window has none
+        severity = float((speeds.max() - speeds.min()) / (2 * mean)) if mean > 0 else 0.0
+        hook = self.string_weight_N - self.nominal_wob_N + snap['hook_load_change'] * s.force_N
         return {
             'time_s': now,
             'bit_axial_speed_m_s': snap['bit_axial_speed'] * s.speed_m_s,
@@ -165,11 +224,16 @@ class DigitalTwin:
             'rate_of_penetration_m_s': snap['bit_axial_speed'] * s.speed_m_s,
             'surface_speed_rad_s': snap['surface_speed'] / s.time_s,
             'surface_torque_Nm': snap['surface_torque'] * s.torque_Nm,
-            'hook_load_N': self.hook_load_N,
+            'hook_load_N': hook,
             'block_velocity_m_s': snap['top_axial_speed'] * s.speed_m_s,
             'stuck': snap['angular_stick'] > 0.5,
             'stick_slip_severity': severity,
             'delay_residual_rad': snap['delay_residual'],
+            'bit_depth_m': snap['bit_position'] * s.depth_m,
+            'bit_above_bottom_m': max(0.0, -snap['depth_of_cut'] * s.depth_m)
+            if snap['contact'] < 0.5 else 0.0,
+            'block_position_m': snap['block_position'] * s.depth_m,
+            'block_velocity_setpoint_m_s': self.block_velocity_setpoint,
         }
 
     def health(self) -> dict:

@@ -22,10 +22,12 @@ Within an integration step the interface holds a **mode** (angular slip or stick
 axial down, up or stuck; contact of each blade).  The mode is valid while every
 switching function of :func:`switching` is >= 0:
 
-* angular slip: bit speed Ω >= 0 (no backward rotation);
+* angular slip: bit speed Ω >= 0 (no backward rotation of a bit on the rock; off
+  bottom the bit turns freely either way — the string unwinds after a connection);
 * angular stick: the string torque ``T_req`` the clamp must hold does not exceed
   the resisting torque ``W_c + β W_f`` (static threshold);
-* axial down / up: V >= 0 / -V >= 0;
+* axial down / up: V >= 0 / -V >= 0 (while a blade touches the rock: off bottom the
+  two modes are the same free motion);
 * axial stuck: ``0 <= W_req - W_c <= λ n_contact`` (the reaction the rock must give
   lies within the wear-flat bounds); while also stuck angularly only lift-off
   (``W_req >= 0``) ends it — the rock blocks downward motion of a bit that does
@@ -102,19 +104,26 @@ def switching(mode, omega_bit, v_bit, depths, cut, capacity, beta, w_required, t
         g[k] = _BIG
     ang = mode[MD_ANG]
     ax = mode[MD_AX]
+    on_rock = False
+    for b in range(depths.size):
+        if mode[MD_CONTACT + b] == 1:
+            on_rock = True
     if ax == AX_STUCK:
         w_f = stuck_wear_flat(w_required, cut, capacity)
     else:
         w_f = sliding_wear_flat(ax, capacity)
     if torsion:
         if ang == ANG_SLIP:
-            g[G_ANG] = omega_bit
+            if on_rock:
+                g[G_ANG] = omega_bit
         else:
             g[G_ANG] = bit_torque(cut, w_f, beta) - t_required
     if ax == AX_DOWN:
-        g[G_AX_LOW] = v_bit
+        if on_rock:
+            g[G_AX_LOW] = v_bit
     elif ax == AX_UP:
-        g[G_AX_LOW] = -v_bit
+        if on_rock:
+            g[G_AX_LOW] = -v_bit
     elif ang == ANG_STICK:
         g[G_AX_LOW] = w_required
     else:

@@ -468,6 +468,13 @@ def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
     na = A.shape[1]
     nt = T.shape[1]
     dx = w.k1
+    if not _any_contact(mode, law.offsets.size):
+        # off bottom the interface law has nothing to hold: free motion both ways
+        ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
+        mode[MD_ANG] = ANG_SLIP
+        mode[MD_AX] = AX_UP if vb < 0.0 else AX_DOWN
+        rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
+        return
     for _ in range(4):
         old_ang = mode[MD_ANG]
         old_ax = mode[MD_AX]

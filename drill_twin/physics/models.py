@@ -86,6 +86,9 @@ class StringModel:
     #: delayed dash-pots on a single-mass bit (lumped model III):
     #: (axial coefficient, axial delay, torsional coefficient, torsional delay)
     delayed_damping: tuple | None = None
+    #: finite-element strings: the length of each element [m], and elements per section
+    element_lengths_m: np.ndarray | None = None
+    section_elements: list | None = None
 
 
 def _tri_from_dense(A: np.ndarray) -> np.ndarray:
@@ -250,35 +253,77 @@ def coupled_chain(n: int, kappa_d: float, psi: float, axial_top: str = 'velocity
                        lumped_chain(mass, 1.0 / compliance), float(psi))
 
 
-def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: int = 10,
+def section_elements(system: DrillStringSI, elements: int = 58,
+                     bha_elements: int | None = None) -> list:
+    """Finite elements of each section: a section's own ``elements`` if it has them, the
+    BHA's ``bha_elements`` for the two-section string of the thesis, the rest shared out
+    in proportion to length (at least one each)."""
+    secs = system.sections
+    fixed = [sec.elements for sec in secs]
+    if bha_elements is not None and len(secs) == 2 and fixed[1] is None:
+        fixed[1] = int(bha_elements)
+    free = [i for i, n in enumerate(fixed) if n is None]
+    left = elements - sum(n for n in fixed if n is not None)
+    if free and left < len(free):
+        raise ParameterError(f'model.elements = {elements} is too few for {len(secs)} '
+                             'sections (at least one element each)')
+    if free:
+        lengths = np.array([secs[i].length_m for i in free])
+        share = np.maximum(1, np.floor(left * lengths / lengths.sum()).astype(int))
+        while share.sum() < left:  # largest remainders first
+            share[np.argmax(left * lengths / lengths.sum() - share)] += 1
+        while share.sum() > left:
+            share[np.argmax(share)] -= 1
+        for i, n in zip(free, share):
+            fixed[i] = int(n)
+    if any(n < 1 for n in fixed):
+        raise ParameterError('every section needs at least one element')
+    return fixed
+
+
+def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: int | None = 10,
                      theta_u: float = 5e-4, theta_phi: float = 1e-4, eta_u: float = 0.0,
                      eta_phi: float = 0.0, top_drive: str = 'speed',
-                     axial_top: str = 'hook_load') -> StringModel:
-    """Finite-element drill string of App. A / §3.2 (drill pipe + BHA).
+                     axial_top: str = 'hook_load', block_mass_kg: float = 0.0,
+                     line_stiffness_N_m: float = 0.0) -> StringModel:
+    """Finite-element drill string of App. A / §3.2: every section of ``system`` meshed
+    with linear elements of its own EA, GJ, ρA, ρJ.
 
-    Axial top: ``'hook_load'`` (constant hook load, free node) or ``'velocity'``
-    (imposed axial velocity, node eliminated).  Torsional top: ``'speed'``
-    (prescribed surface speed, node eliminated) or ``'soft_torque'`` (drive
-    inertia I_DS on the top node tied to the motor by the tuned k_f, c_f).
-    Units: masses / M_BHA, inertias / I_BHA, stiffnesses / (M_BHA/t*²) and C.
+    Axial top: ``'hook_load'`` (constant hook load, free node), ``'velocity'``
+    (imposed block motion, node eliminated) or ``'hoist'`` (free node carrying the
+    travelling block and hook mass on the drill line's stiffness, whose upper end —
+    the drum — moves as commanded).  Torsional top: ``'speed'`` (prescribed surface
+    speed, node eliminated) or ``'soft_torque'`` (drive inertia I_DS on the top node
+    tied to the motor by the tuned k_f, c_f).  Units: masses / M_BHA, inertias /
+    I_BHA, stiffnesses / (M_BHA/t*²) and C.
     """
-    if elements < 2 or bha_elements < 1 or bha_elements >= elements:
-        raise ParameterError('need elements >= 2 and 1 <= bha_elements < elements')
+    if elements < 2:
+        raise ParameterError('need elements >= 2')
+    counts = section_elements(system, elements, bha_elements)
     s = system.scales()
-    n_dp = elements - bha_elements
-    h = np.concatenate([np.full(n_dp, system.pipe_length_m / n_dp),
-                        np.full(bha_elements, system.bha_length_m / bha_elements)])
-    is_bha = np.arange(elements) >= n_dp
-    area = np.where(is_bha, system.bha_area_m2, system.pipe_area_m2)
-    polar = np.where(is_bha, system.bha_polar_m4, system.pipe_polar_m4)
+    h, area, polar, rho, young, shear = [], [], [], [], [], []
+    for sec, n in zip(system.sections, counts):
+        h += [sec.length_m / n] * n
+        area += [sec.area_m2] * n
+        polar += [sec.polar_m4] * n
+        rho += [sec.density_kg_m3] * n
+        young += [sec.young_modulus_Pa] * n
+        shear += [sec.shear_modulus_Pa] * n
+    h, area, polar, rho, young, shear = map(np.asarray, (h, area, polar, rho, young, shear))
     t2 = s.time_s ** 2
-    if axial_top not in ('hook_load', 'velocity'):
-        raise ParameterError(f"axial_top must be 'hook_load' or 'velocity', got {axial_top!r}")
-    axial = fem_chain(h, system.young_modulus_Pa * area * t2 / s.mass_kg,
-                      system.density_kg_m3 * area / s.mass_kg, eta_u, theta_u,
-                      top_fixed=axial_top == 'velocity')
-    gj = system.shear_modulus_Pa * polar / s.torque_Nm
-    rj = system.density_kg_m3 * polar / s.inertia_kgm2
+    if axial_top not in ('hook_load', 'velocity', 'hoist'):
+        raise ParameterError(f"axial_top must be 'hook_load', 'velocity' or 'hoist', got "
+                             f'{axial_top!r}')
+    hoist = {}
+    if axial_top == 'hoist':
+        if not (block_mass_kg > 0 and line_stiffness_N_m > 0):
+            raise ParameterError('a hoist needs the block mass and the drill line stiffness')
+        hoist = {'top_mass': block_mass_kg / s.mass_kg,
+                 'top_spring': line_stiffness_N_m * t2 / s.mass_kg}
+    axial = fem_chain(h, young * area * t2 / s.mass_kg, rho * area / s.mass_kg, eta_u, theta_u,
+                      top_fixed=axial_top == 'velocity', **hoist)
+    gj = shear * polar / s.torque_Nm
+    rj = rho * polar / s.inertia_kgm2
     if top_drive == 'speed':
         tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=True)
     elif top_drive == 'soft_torque':
@@ -288,11 +333,15 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
                          top_dashpot=st['damping'])
     else:
         raise ParameterError(f"top_drive must be 'speed' or 'soft_torque', got {top_drive!r}")
-    return StringModel(f'fem_{elements}', axial, tors, system.psi)
+    model = StringModel(f'fem_{elements}', axial, tors, system.psi)
+    model.element_lengths_m = h
+    model.section_elements = counts
+    return model
 
 
 def pipe_impedances(system: DrillStringSI) -> dict:
-    """Radiation (semi-infinite pipe) impedances of the drill pipe, dimensionless.
+    """Radiation (semi-infinite pipe) impedances of the drill pipe just above the BHA,
+    dimensionless.
 
     A semi-infinite elastic pipe loaded at its end answers a velocity V with the
     force ``A sqrt(Eρ) V`` (eqs 5.2.1-5.2.2: ∂U/∂t = -c ∂U/∂x), and a spin Ω with the
@@ -301,13 +350,17 @@ def pipe_impedances(system: DrillStringSI) -> dict:
     round-trip times ``2 L_d/(c t*)`` along the pipe (units t*).
     """
     s = system.scales()
-    z_u = system.pipe_area_m2 * math.sqrt(system.young_modulus_Pa * system.density_kg_m3)
-    z_p = system.pipe_polar_m4 * math.sqrt(system.shear_modulus_Pa * system.density_kg_m3)
-    c_u = math.sqrt(system.young_modulus_Pa / system.density_kg_m3)
-    c_p = math.sqrt(system.shear_modulus_Pa / system.density_kg_m3)
+    pipe = system.pipe_sections[-1]
+    rho, young, shear = pipe.density_kg_m3, pipe.young_modulus_Pa, pipe.shear_modulus_Pa
+    z_u = pipe.area_m2 * math.sqrt(young * rho)
+    z_p = pipe.polar_m4 * math.sqrt(shear * rho)
+    # round trips over the whole pipe above the BHA, section by section
+    t_u = sum(sec.length_m / math.sqrt(sec.young_modulus_Pa / sec.density_kg_m3)
+              for sec in system.pipe_sections)
+    t_p = sum(sec.length_m / math.sqrt(sec.shear_modulus_Pa / sec.density_kg_m3)
+              for sec in system.pipe_sections)
     return {'axial': z_u * s.time_s / s.mass_kg, 'torsional': z_p * s.time_s / s.inertia_kgm2,
-            'axial_round_trip': 2 * system.pipe_length_m / (c_u * s.time_s),
-            'torsional_round_trip': 2 * system.pipe_length_m / (c_p * s.time_s)}
+            'axial_round_trip': 2 * t_u / s.time_s, 'torsional_round_trip': 2 * t_p / s.time_s}
 
 
 def lumped_bha(psi: float, variant: str, axial_impedance: float, torsional_impedance: float,

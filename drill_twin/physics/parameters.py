@@ -33,11 +33,11 @@ see the same depth of cut ``δ_o = (W_o - n_b λ)/n_b`` (only if W_o > n_b λ),
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 __all__ = [
-    'ParameterError', 'BitRockGroups', 'DrillStringSI', 'Scales',
-    'steady_state', 'soft_torque_tuning',
+    'ParameterError', 'BitRockGroups', 'DrillStringSI', 'StringSection', 'Scales',
+    'steady_state', 'soft_torque_tuning', 'GRAVITY_M_S2',
 ]
 
 
@@ -214,14 +214,85 @@ class Scales:
         return self.depth_m / self.time_s
 
 
+GRAVITY_M_S2 = 9.81
+
+
+@dataclass(frozen=True)
+class StringSection:
+    """One section of the drill string (drill pipe, heavy-weight pipe, collars ...), SI.
+
+    ``bha``: the section belongs to the bottom-hole assembly (its inertia and mass are
+    the reference I and M of the scales, eq. 2.4.1); ``elements``: finite elements of
+    this section (None: shared out by length, :func:`drill_twin.physics.models.fem_drill_string`).
+    """
+
+    name: str
+    length_m: float
+    outer_diameter_m: float
+    inner_diameter_m: float
+    density_kg_m3: float
+    young_modulus_Pa: float
+    shear_modulus_Pa: float
+    bha: bool = False
+    elements: int | None = None
+
+    def __post_init__(self):
+        for f in ('length_m', 'outer_diameter_m', 'density_kg_m3', 'young_modulus_Pa',
+                  'shear_modulus_Pa'):
+            _check_positive(f'section {self.name!r} {f}', getattr(self, f))
+        _check_positive(f'section {self.name!r} inner_diameter_m', self.inner_diameter_m,
+                        allow_zero=True)
+        if self.inner_diameter_m >= self.outer_diameter_m:
+            raise ParameterError(f'section {self.name!r}: inner_diameter_m '
+                                 f'{self.inner_diameter_m:g} m must be below outer_diameter_m '
+                                 f'{self.outer_diameter_m:g} m')
+
+    @property
+    def area_m2(self) -> float:
+        return math.pi / 4.0 * (self.outer_diameter_m ** 2 - self.inner_diameter_m ** 2)
+
+    @property
+    def polar_m4(self) -> float:
+        return math.pi / 32.0 * (self.outer_diameter_m ** 4 - self.inner_diameter_m ** 4)
+
+    @property
+    def mass_kg(self) -> float:
+        return self.density_kg_m3 * self.area_m2 * self.length_m
+
+    @property
+    def inertia_kgm2(self) -> float:
+        """Polar mass moment of inertia ρ J L [kg·m²]."""
+        return self.density_kg_m3 * self.polar_m4 * self.length_m
+
+    @property
+    def torsional_compliance(self) -> float:
+        """L / (G J) [rad/(N·m)]."""
+        return self.length_m / (self.shear_modulus_Pa * self.polar_m4)
+
+    @property
+    def axial_compliance(self) -> float:
+        """L / (E A) [m/N]."""
+        return self.length_m / (self.young_modulus_Pa * self.area_m2)
+
+    def buoyed_weight_N(self, mud_density_kg_m3: float) -> float:
+        """Weight in mud, (ρ - ρ_mud) g A L [N]."""
+        return (self.density_kg_m3 - mud_density_kg_m3) * GRAVITY_M_S2 * self.area_m2 \
+            * self.length_m
+
+
 @dataclass(frozen=True)
 class DrillStringSI:
     """One consistent SI description of a drilling system (thesis App. D, §2.2.1).
 
     All lengths in m, areas in m², polar second moments in m⁴, moduli and
     stresses in Pa, densities in kg/m³, masses in kg, speeds in rad/s,
-    forces in N.  Cross-sections are computed from outer/inner radii so
-    that areas and polar moments are mutually consistent.
+    forces in N.  The string is ``sections`` (top to bottom; :class:`StringSection`),
+    each with its own OD, ID, length and material; given none, it is the thesis's
+    two sections, drill pipe over BHA, from the ``pipe_*``/``bha_*`` fields (radii).
+    With sections given, those fields are set to their summary: the lengths of the
+    pipe above the BHA and of the BHA, the radii of the section just above the BHA
+    and of the first BHA section.  Scales (eq. 2.4.1) come from the sections:
+    I and M of the BHA, C the series torsional stiffness of the pipe above it.
     """
 
     pipe_length_m: float = 1000.0
@@ -244,77 +315,125 @@ class DrillStringSI:
     drive_mass_kg: float = 18160.0
     drive_width_m: float = 1.867
     drive_depth_m: float = 1.722
+    mud_density_kg_m3: float = 1200.0
+    sections: tuple = ()
+    blade_angles_rad: tuple = ()
     extra: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
         for f in fields(self):
-            if f.name in ('extra', 'blades'):
+            if f.name in ('extra', 'blades', 'sections', 'blade_angles_rad'):
                 continue
-            _check_positive(f.name, getattr(self, f.name))
+            _check_positive(f.name, getattr(self, f.name),
+                            allow_zero=f.name == 'mud_density_kg_m3')
         if int(self.blades) != self.blades or self.blades < 1:
             raise ParameterError(f'blades must be an integer >= 1, got {self.blades!r}')
-        if self.pipe_inner_radius_m >= self.pipe_outer_radius_m:
-            raise ParameterError('pipe_inner_radius_m must be smaller than pipe_outer_radius_m')
-        if self.bha_inner_radius_m >= self.bha_outer_radius_m:
-            raise ParameterError('bha_inner_radius_m must be smaller than bha_outer_radius_m')
+        if not self.sections:
+            if self.pipe_inner_radius_m >= self.pipe_outer_radius_m:
+                raise ParameterError('pipe_inner_radius_m must be smaller than '
+                                     'pipe_outer_radius_m')
+            if self.bha_inner_radius_m >= self.bha_outer_radius_m:
+                raise ParameterError('bha_inner_radius_m must be smaller than '
+                                     'bha_outer_radius_m')
+            object.__setattr__(self, 'sections', (
+                StringSection('drill pipe', self.pipe_length_m, 2 * self.pipe_outer_radius_m,
+                              2 * self.pipe_inner_radius_m, self.density_kg_m3,
+                              self.young_modulus_Pa, self.shear_modulus_Pa),
+                StringSection('BHA', self.bha_length_m, 2 * self.bha_outer_radius_m,
+                              2 * self.bha_inner_radius_m, self.density_kg_m3,
+                              self.young_modulus_Pa, self.shear_modulus_Pa, bha=True)))
+        else:
+            self._summarise_sections()
+        for sec in self.sections:
+            if self.mud_density_kg_m3 >= sec.density_kg_m3:
+                raise ParameterError(f'mud density {self.mud_density_kg_m3:g} kg/m^3 must be '
+                                     f'below the density of section {sec.name!r}')
+
+    def _summarise_sections(self):
+        secs = tuple(self.sections)
+        if not all(isinstance(sec, StringSection) for sec in secs):
+            raise ParameterError('sections must be StringSection objects')
+        if not any(sec.bha for sec in secs):
+            secs = secs[:-1] + (replace(secs[-1], bha=True),)  # the last one is the BHA
+        first_bha = next(i for i, sec in enumerate(secs) if sec.bha)
+        if first_bha == 0 or not all(sec.bha for sec in secs[first_bha:]):
+            raise ParameterError('the BHA sections must be the lowest ones, below at least one '
+                                 'section of pipe')
+        pipe, bha = secs[first_bha - 1], secs[first_bha]
+        set_ = object.__setattr__
+        set_(self, 'sections', secs)
+        set_(self, 'pipe_length_m', sum(sec.length_m for sec in secs[:first_bha]))
+        set_(self, 'bha_length_m', sum(sec.length_m for sec in secs[first_bha:]))
+        set_(self, 'pipe_outer_radius_m', pipe.outer_diameter_m / 2)
+        set_(self, 'pipe_inner_radius_m', pipe.inner_diameter_m / 2)
+        set_(self, 'bha_outer_radius_m', bha.outer_diameter_m / 2)
+        set_(self, 'bha_inner_radius_m', bha.inner_diameter_m / 2)
 
     # --- section properties -------------------------------------------------------
-    @staticmethod
-    def _area(ro, ri):
-        return math.pi * (ro ** 2 - ri ** 2)
+    @property
+    def pipe_sections(self) -> tuple:
+        return tuple(sec for sec in self.sections if not sec.bha)
 
-    @staticmethod
-    def _polar(ro, ri):
-        return 0.5 * math.pi * (ro ** 4 - ri ** 4)
+    @property
+    def bha_sections(self) -> tuple:
+        return tuple(sec for sec in self.sections if sec.bha)
+
+    @property
+    def total_length_m(self) -> float:
+        return sum(sec.length_m for sec in self.sections)
 
     @property
     def pipe_area_m2(self):
-        return self._area(self.pipe_outer_radius_m, self.pipe_inner_radius_m)
+        """Area of the pipe section just above the BHA (the one waves radiate into)."""
+        return self.pipe_sections[-1].area_m2
 
     @property
     def bha_area_m2(self):
-        return self._area(self.bha_outer_radius_m, self.bha_inner_radius_m)
+        return self.bha_sections[0].area_m2
 
     @property
     def pipe_polar_m4(self):
-        return self._polar(self.pipe_outer_radius_m, self.pipe_inner_radius_m)
+        return self.pipe_sections[-1].polar_m4
 
     @property
     def bha_polar_m4(self):
-        return self._polar(self.bha_outer_radius_m, self.bha_inner_radius_m)
+        return self.bha_sections[0].polar_m4
 
     @property
     def bha_mass_kg(self):
-        return self.density_kg_m3 * self.bha_area_m2 * self.bha_length_m
+        return sum(sec.mass_kg for sec in self.bha_sections)
 
     @property
     def bha_inertia_kgm2(self):
-        """BHA polar mass moment of inertia I = ρ J_b L_b [kg·m²]."""
-        return self.density_kg_m3 * self.bha_polar_m4 * self.bha_length_m
+        """BHA polar mass moment of inertia I = Σ ρ J L [kg·m²]."""
+        return sum(sec.inertia_kgm2 for sec in self.bha_sections)
 
     @property
     def pipe_torsional_stiffness_Nm(self):
-        """Drill-pipe torsional stiffness C = G J_d / L_d [N·m/rad] (eq. 2.4.1)."""
-        return self.shear_modulus_Pa * self.pipe_polar_m4 / self.pipe_length_m
+        """Torsional stiffness of the pipe above the BHA, C = 1/Σ L/(G J) [N·m/rad]
+        (eq. 2.4.1: G J_d / L_d for one section)."""
+        return 1.0 / sum(sec.torsional_compliance for sec in self.pipe_sections)
 
     @property
     def pipe_axial_stiffness_N_m(self):
-        """Drill-pipe axial stiffness E A_d / L_d [N/m]."""
-        return self.young_modulus_Pa * self.pipe_area_m2 / self.pipe_length_m
+        """Axial stiffness of the pipe above the BHA, 1/Σ L/(E A) [N/m]."""
+        return 1.0 / sum(sec.axial_compliance for sec in self.pipe_sections)
 
     @property
     def drive_inertia_kgm2(self):
         """Top-drive inertia I_DS = M_DS (l1² + l2²)/12 [kg·m²] (§2.2.1)."""
         return self.drive_mass_kg * (self.drive_width_m ** 2 + self.drive_depth_m ** 2) / 12.0
 
-    def buoyed_weight_N(self, mud_density_kg_m3: float = 1200.0,
-                        gravity_m_s2: float = 9.81) -> float:
-        """Buoyed weight of the whole string ∫ f_u dx [N] (§2.1: H = ∫ f_u dx - W)."""
-        _check_positive('mud_density_kg_m3', mud_density_kg_m3, allow_zero=True)
-        if mud_density_kg_m3 >= self.density_kg_m3:
+    def buoyed_weight_N(self, mud_density_kg_m3: float | None = None,
+                        gravity_m_s2: float = GRAVITY_M_S2) -> float:
+        """Buoyed weight of the whole string ∫ f_u dx [N] (§2.1: H = ∫ f_u dx - W), in the
+        configured mud unless ``mud_density_kg_m3`` is given."""
+        mud = self.mud_density_kg_m3 if mud_density_kg_m3 is None else mud_density_kg_m3
+        _check_positive('mud_density_kg_m3', mud, allow_zero=True)
+        if any(mud >= sec.density_kg_m3 for sec in self.sections):
             raise ParameterError('mud density must be below the steel density')
-        volume = self.pipe_area_m2 * self.pipe_length_m + self.bha_area_m2 * self.bha_length_m
-        return (self.density_kg_m3 - mud_density_kg_m3) * gravity_m_s2 * volume
+        return sum(sec.buoyed_weight_N(mud) for sec in self.sections) \
+            * gravity_m_s2 / GRAVITY_M_S2
 
     # --- characteristic scales, eq. 2.4.1 ---------------------------------------
     def scales(self) -> Scales:
@@ -358,7 +477,8 @@ class DrillStringSI:
         s = self.scales()
         return BitRockGroups(n_b=int(self.blades), lam=self.lam, beta=self.beta,
                              W_o=weight_on_bit_N / s.force_N,
-                             omega_o=surface_speed_rad_s * s.time_s, psi=self.psi)
+                             omega_o=surface_speed_rad_s * s.time_s, psi=self.psi,
+                             blade_angles=tuple(self.blade_angles_rad))
 
 
 def soft_torque_tuning(drive_inertia_ratio: float) -> dict:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
@@ -38,7 +38,7 @@ from .models import (
     rgd,
     rgd_k,
 )
-from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales
+from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, StringSection
 from .schema import ConfigError, validate
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
@@ -158,8 +158,27 @@ def _groups_from(g: dict, where: str):
     return groups, g.get('kappa_d')
 
 
-def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
+def _system_from(cfg: dict) -> DrillStringSI:
+    """The SI drilling system of a validated configuration: its sections (materials
+    defaulting to the string's) or the two-section pipe + BHA, and the bit's blade angles."""
+    ds = dict(cfg['drill_string'])
+    sections = ds.pop('sections', None)
+    if sections:
+        material = {k: ds[k] for k in ('density_kg_m3', 'young_modulus_Pa', 'shear_modulus_Pa')}
+        ds['sections'] = tuple(StringSection(**{**material, **sec}) for sec in sections)
+        if not any(sec.get('bha') for sec in sections):
+            ds['sections'] = ds['sections'][:-1] + (
+                replace(ds['sections'][-1], bha=True),)
+    angles = (cfg.get('bit') or {}).get('blade_angles_deg')
+    if angles:
+        ds['blade_angles_rad'] = tuple(math.radians(a) for a in angles)
+    return DrillStringSI(**ds)
+
+
+def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None):
     kind = m['type']
+    if m.get('axial_top') == 'hoist' and (kind != 'fem' or system is None):
+        raise ParameterError('model.axial_top: hoist needs model.type fem and units: si')
     if kind == 'rgd':
         return rgd(groups.psi)
     if kind == 'rgd_axial':
@@ -190,14 +209,17 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system):
         return model
     if system is None:
         raise ParameterError('model fem needs units: si and a drill_string section')
-    if m['bha_elements'] >= m['elements']:
+    if m.get('bha_elements', 0) >= m['elements']:
         raise ParameterError(f"model.bha_elements = {m['bha_elements']} must be below "
                              f"model.elements = {m['elements']}")
+    rig = rig or {}
     return fem_drill_string(
-        system, elements=m['elements'], bha_elements=m['bha_elements'],
+        system, elements=m['elements'], bha_elements=m.get('bha_elements'),
         theta_u=m['theta_u'], theta_phi=m['theta_phi'], eta_u=m['eta_u'],
         eta_phi=m['eta_phi'], top_drive=m['top_drive'],
-        axial_top=m.get('axial_top') or 'hook_load')
+        axial_top=m.get('axial_top') or 'hook_load',
+        block_mass_kg=rig.get('block_mass_kg', 20000.0),
+        line_stiffness_N_m=rig.get('line_stiffness_N_m', 2.5e7))
 
 
 def _impedances(m: dict, system) -> dict:
@@ -232,18 +254,21 @@ def _fill_defaults(cfg: dict, units: str):
         pert.setdefault(key, 0.0)
     if cfg['model']['type'] == 'fem':
         m = cfg['model']
-        for key, value in (('elements', 58), ('bha_elements', 10), ('theta_u', 5e-4),
-                           ('theta_phi', 1e-4), ('eta_u', 0.0), ('eta_phi', 0.0),
-                           ('top_drive', 'speed')):
+        for key, value in (('elements', 58), ('theta_u', 5e-4), ('theta_phi', 1e-4),
+                           ('eta_u', 0.0), ('eta_phi', 0.0), ('top_drive', 'speed')):
             m.setdefault(key, value)
+        if 'sections' not in (cfg.get('drill_string') or {}):
+            m.setdefault('bha_elements', 10)   # the thesis's mesh of pipe + BHA
+    if units == 'si':
+        cfg['drill_string'].setdefault('mud_density_kg_m3', 1200.0)
 
 
 def _check_step(dt: float, model, groups):
     """A configured step must resolve the delay and lie in the RK4 stability region."""
-    if dt > 0.25 * groups.tau_10:
+    if dt > 0.25 * groups.min_delay:
         raise ParameterError(f'simulation.time_step = {dt:g} t*: too large for the delay '
-                             f'tau_10 = {groups.tau_10:.4g} t* (at most tau_10/4 = '
-                             f'{0.25 * groups.tau_10:.4g} t*)')
+                             f'{groups.min_delay:.4g} t* (at most a quarter of it, '
+                             f'{0.25 * groups.min_delay:.4g} t*)')
     if model.name == 'semi_infinite':
         return
     limit = max_stable_step(model, cap=max(dt, 5e-3))
@@ -264,7 +289,7 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
     try:
         system = scales = None
         if units == 'si':
-            system = DrillStringSI(**cfg['drill_string'])
+            system = _system_from(cfg)
             op = cfg['operating_point']
             groups = system.groups(op['surface_speed_rad_s'], op['weight_on_bit_N'])
             scales = system.scales()
@@ -273,10 +298,13 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
             rec = sim['record_interval_s'] / scales.time_s
         else:
             groups, kappa_d = _groups_from(cfg['groups'], source)
+            angles = (cfg.get('bit') or {}).get('blade_angles_deg')
+            if angles:
+                groups = groups.replace(blade_angles=tuple(math.radians(a) for a in angles))
             dur, rec = sim['duration'], sim['record_interval']
-        model = _build_model(cfg['model'], groups, kappa_d, system)
+        model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'))
         if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
-            dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.tau_10)
+            dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.min_delay)
         else:
             dt = sim['time_step']
             _check_step(dt, model, groups)

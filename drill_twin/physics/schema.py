@@ -61,19 +61,22 @@ class Key:
     def range_text(self) -> str:
         if self.kind == 'choice':
             return 'one of ' + ', '.join(self.choices)
+        if self.kind == 'bool':
+            return 'true or false'
         if self.low is None and self.high is None:
             return ''
         lo = '(' if self.open_low else '['
         hi = ')' if self.open_high else ']'
         unit = f' {self.unit}' if self.unit and self.unit != '1' else ''
-        what = 'an integer' if self.kind == 'int' else 'a number'
+        what = {'int': 'an integer', 'float_list': 'numbers'}.get(self.kind, 'a number')
         extra = " or 'auto'" if self.kind == 'float_or_auto' else ''
         return f'{what} in {lo}{self.low:g}, {self.high:g}{hi}{unit}{extra}'
 
 
 @dataclass(frozen=True)
 class Section:
-    """A mapping of keys.  ``units``: the ``units`` values it belongs to (empty: all)."""
+    """A mapping of keys.  ``units``: the ``units`` values it belongs to (empty: all);
+    ``many``: the value is a list of such mappings (``drill_string.sections``)."""
 
     name: str
     doc: str
@@ -81,6 +84,7 @@ class Section:
     required: bool = False
     units: tuple = ()
     subsections: tuple = field(default=())
+    many: bool = False
 
     def key(self, name):
         return next((k for k in self.keys if k.name == name), None)
@@ -112,8 +116,9 @@ MODEL = Section('model', 'the drill-string model', required=True, keys=(
          open_low=False, models=('fem',)),
     Key('top_drive', 'choice', 'torsional top: prescribed speed or Soft-Torque drive',
         choices=('speed', 'soft_torque'), default='speed', models=('fem',)),
-    Key('axial_top', 'choice', 'axial top: constant hook load or imposed velocity',
-        choices=('hook_load', 'velocity'), default=None, models=('fem', 'coupled_chain')),
+    Key('axial_top', 'choice', 'axial top: constant hook load, imposed block velocity, or a '
+        'hoist (block mass on the drill line, SI)', choices=('hook_load', 'velocity', 'hoist'),
+        default=None, models=('fem', 'coupled_chain')),
     _pos('n', 'number of oscillators', '1', 1000, REQUIRED, kind='int', low=1, open_low=False,
          models=_CHAINS),
     _pos('eps', 'mass fraction ε1 of the upper oscillators (eq. 4.4.1)', '1', 1.0, None,
@@ -131,6 +136,25 @@ MODEL = Section('model', 'the drill-string model', required=True, keys=(
     _pos('torsional_round_trip', 'torsional wave round trip 2L/c (lumped III, dimensionless '
          'configs)', 't*', 1e6, None, models=_LUMPED),
 ))
+
+SECTIONS = Section('sections', 'the string from top to bottom, one mapping per section '
+                   '(replaces the two-section pipe_*/bha_* keys)', many=True, keys=(
+    Key('name', 'str', 'what it is (drill pipe, heavy-weight pipe, collars ...)',
+        default=REQUIRED),
+    _pos('length_m', 'section length', 'm', 20000.0),
+    _pos('outer_diameter_m', 'outer diameter (OD)', 'm', 2.0),
+    _pos('inner_diameter_m', 'inner diameter (ID, < OD; 0 = solid)', 'm', 2.0, open_low=False),
+    _pos('density_kg_m3', 'steel density (default: drill_string.density_kg_m3)', 'kg/m^3',
+         30000.0, None),
+    _pos('young_modulus_Pa', "Young's modulus (default: drill_string's)", 'Pa', 1e13, None),
+    _pos('shear_modulus_Pa', "shear modulus (default: drill_string's)", 'Pa', 1e13, None),
+    Key('bha', 'bool', 'part of the BHA (default: only the last section)', default=None),
+    _pos('elements', 'finite elements of this section (default: shared out by length)',
+         '1', 4096, None, kind='int', low=1, open_low=False),
+))
+
+_LEGACY_GEOMETRY = {'pipe_length_m', 'bha_length_m', 'pipe_outer_radius_m',
+                    'pipe_inner_radius_m', 'bha_outer_radius_m', 'bha_inner_radius_m'}
 
 DRILL_STRING = Section('drill_string', 'the physical drilling system (SI)', required=True,
                        units=('si',), keys=(
@@ -156,6 +180,20 @@ DRILL_STRING = Section('drill_string', 'the physical drilling system (SI)', requ
     _pos('drive_mass_kg', 'top-drive mass M_DS (§2.2.1)', 'kg', 1e6),
     _pos('drive_width_m', 'top-drive width l1 (§2.2.1)', 'm', 100.0),
     _pos('drive_depth_m', 'top-drive depth l2 (§2.2.1)', 'm', 100.0),
+    _pos('mud_density_kg_m3', 'mud density (buoyancy: hook load <-> WOB)', 'kg/m^3', 3000.0,
+         1200.0, open_low=False),
+), subsections=(SECTIONS,))
+
+RIG = Section('rig', 'the hoisting system of model.axial_top: hoist (SI; defaults assumed, '
+              'docs/operations.md)', units=('si',), keys=(
+    _pos('block_mass_kg', 'travelling block and hook mass', 'kg', 1e6, 20000.0),
+    _pos('line_stiffness_N_m', 'drill line stiffness seen at the hook (n² EA / L of the '
+         'reeving)', 'N/m', 1e12, 2.5e7),
+))
+
+BIT = Section('bit', 'blade layout of the bit', keys=(
+    Key('blade_angles_deg', 'float_list', 'angular position of every blade (n_b entries; '
+        'default evenly spaced)', 'deg', -360.0, 720.0, default=None),
 ))
 
 OPERATING_POINT = Section('operating_point', 'the steady operating point (SI)', required=True,
@@ -198,7 +236,7 @@ SIMULATION = Section('simulation', 'run settings', keys=(
         'compatible with the top boundary', choices=('bit', 'all', 'smooth'), default='bit'),
 ), subsections=(PERTURBATION,))
 
-TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, SIMULATION)
+TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, BIT, SIMULATION)
 SCHEMA = Section('', 'a drill_twin configuration', keys=(
     Key('units', 'choice', 'si: a physical system, SI in and out; dimensionless: the '
         'research groups of ch. 4-5', choices=('si', 'dimensionless'), default=REQUIRED),
@@ -247,6 +285,16 @@ def _number(value):
 def _check(key: Key, value, path: str, where: str):
     if key.kind == 'float_or_auto' and value == 'auto':
         return 'auto'
+    if key.kind == 'bool':
+        if not isinstance(value, bool):
+            _fail(where, path, value, key, 'must be true or false')
+        return value
+    if key.kind == 'float_list':
+        if not isinstance(value, list) or not value:
+            _fail(where, path, value, key, f'must be a list of numbers ({key.doc})')
+        item = Key(key.name, 'float', key.doc, key.unit, key.low, key.high, key.open_low,
+                   key.open_high)
+        return [_check(item, v, f'{path}[{i}]', where) for i, v in enumerate(value)]
     if key.kind == 'choice':
         if value not in key.choices:
             close = difflib.get_close_matches(str(value), key.choices, n=1)
@@ -300,7 +348,13 @@ def _section(section: Section, data, path: str, ctx: dict):
             if sub.units and ctx['units'] not in sub.units:
                 raise ConfigError(f'{origin}: {full} does not apply to units: {ctx["units"]} '
                                   f'(only to units: {", ".join(sub.units)})')
-            out[name] = _section(sub, value, full, ctx)
+            if sub.many:
+                if not isinstance(value, list) or not value:
+                    _fail(origin, full, value, None, f'must be a list of mappings ({sub.doc})')
+                out[name] = [_section(sub, item, f'{full}[{i}]', ctx)
+                             for i, item in enumerate(value)]
+            else:
+                out[name] = _section(sub, value, full, ctx)
             continue
         key = section.key(name)
         if key is None:
@@ -314,8 +368,16 @@ def _section(section: Section, data, path: str, ctx: dict):
         if key.models and model_type is not None and model_type not in key.models:
             continue  # a key of another model type: ignored (see module docstring)
         out[name] = _check(key, value, full, origin)
+    alternative = section.name == 'drill_string' and 'sections' in out
+    if alternative:
+        legacy = sorted(set(out) & _LEGACY_GEOMETRY)
+        if legacy:
+            raise ConfigError(f'{where}: give drill_string.sections or the two-section keys '
+                              f'(pipe_*/bha_*), not both: {", ".join(legacy)}')
     for key in section.keys:
         applies = not key.models or model_type is None or model_type in key.models
+        if alternative and key.name in _LEGACY_GEOMETRY:
+            continue
         if key.default is REQUIRED and key.name not in out and applies:
             full = f'{path}.{key.name}' if path else key.name
             raise ConfigError(f'{ctx["source"]}: missing required key {full} '

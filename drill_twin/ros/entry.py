@@ -12,15 +12,17 @@ import logging
 import os
 import signal
 import sys
+from contextlib import contextmanager
 
-__all__ = ['install_quiet_signals', 'rclpy_took_over', 'twin_node', 'soft_torque_node',
-           'mcap_recorder']
+__all__ = ['install_quiet_signals', 'rclpy_took_over', 'interruptible', 'twin_node',
+           'soft_torque_node', 'mcap_recorder']
 
 _ROS_HANDLES_SIGNALS = [False]
+_INTERRUPTIBLE = [False]
 
 
 def _quiet_exit(signum, frame):
-    if not _ROS_HANDLES_SIGNALS[0]:
+    if not _ROS_HANDLES_SIGNALS[0] or _INTERRUPTIBLE[0]:
         raise SystemExit(0)
     # after rclpy.init its C-level handler has already shut the context down: spinning
     # ends by itself and the node is destroyed properly
@@ -35,6 +37,19 @@ def install_quiet_signals():
 def rclpy_took_over():
     """Called right after ``rclpy.init``: from now on a signal is a ROS shutdown."""
     _ROS_HANDLES_SIGNALS[0] = True
+
+
+@contextmanager
+def interruptible():
+    """A long computation during construction (loading a configuration, compiling the
+    kernels on a cold numba cache: a minute on a loaded machine) that a signal may cut
+    short: SIGINT/SIGTERM inside end the process at once with exit code 0.  rclpy's
+    handler, which chains to ours, has already shut the context down by then."""
+    before, _INTERRUPTIBLE[0] = _INTERRUPTIBLE[0], True
+    try:
+        yield
+    finally:
+        _INTERRUPTIBLE[0] = before
 
 
 def _run(module: str) -> int:

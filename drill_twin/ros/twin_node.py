@@ -36,10 +36,14 @@ import time
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
 from .. import topics as T
 from ..io.run_recorder import TwinRecorder
+from ..operations.driller import Driller, ScenarioError
+from ..operations.timeline import load_timeline
 from ..physics.digital_twin import DigitalTwin, SetpointError, aligned_step
+from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from ..physics.simulation import SimulationDiverged
 from ..runtime.advisor import StabilityAdvisor
@@ -48,6 +52,7 @@ from ..runtime.health import ERROR, WARN, EventWindow, human, worst
 from ..runtime.pacing import Pacer
 from ..runtime.settings import TWIN_SETTINGS
 from .common import declare_settings, run_node, warn_unknown_overrides
+from .entry import interruptible
 from .messages import message_class, qos_profile, to_message
 
 __all__ = ['TwinNode', 'main', 'SETPOINT_QOS', 'LATCHED_QOS']
@@ -72,19 +77,32 @@ class TwinNode(Node):
         warn_unknown_overrides(self)
         g = self._param
         overrides = [o for o in g('overrides') if o]
-        self.get_logger().info(f"loading {g('config')}; compiling the kernels if numba's "
-                               'cache is cold')
-        scenario = load_scenario(g('config'), overrides, label='parameter overrides:')
-        self.fast = g('as_fast_as_possible')
-        # a publish period of simulated time is a whole number of integration steps, so that
-        # samples (and their stamps) are evenly spaced
-        sample_s = (1.0 if self.fast else g('real_time_factor')) / g('publish_rate_hz')
-        self.twin = DigitalTwin(scenario, mud_density_kg_m3=g('mud_density_kg_m3'),
-                                drive_time_constant_s=g('drive_time_constant_s'),
-                                max_surface_speed_rad_s=g('max_surface_speed_rad_s'),
-                                time_step_s=aligned_step(scenario.time_step
-                                                         * scenario.time_unit_s, sample_s))
-        self.twin.warm_up()  # compile/run the kernels now, not in the first tick
+        self.timeline = None
+        if g('scenario'):
+            explicit = set(getattr(self, '_parameter_overrides', {})) & {'config', 'overrides'}
+            if explicit:
+                raise ParameterError('give the scenario parameter or config/overrides, not '
+                                     'both: a scenario file names its configuration')
+            self.timeline = load_timeline(g('scenario'))
+            config, overrides = self.timeline.configuration, list(self.timeline.overrides)
+        else:
+            config = g('config')
+        with interruptible():  # a signal while compiling ends the process at once
+            self.get_logger().info(f"loading {g('scenario') or config}; compiling the kernels "
+                                   "if numba's cache is cold")
+            scenario = load_scenario(config, overrides, label='parameter overrides:')
+            self.fast = g('as_fast_as_possible')
+            # a publish period of simulated time is a whole number of integration steps, so that
+            # samples (and their stamps) are evenly spaced
+            sample_s = (1.0 if self.fast else g('real_time_factor')) / g('publish_rate_hz')
+            at_rest = self.timeline is not None and self.timeline.start == 'rest'
+            self.twin = DigitalTwin(scenario, drive_time_constant_s=g('drive_time_constant_s'),
+                                    max_surface_speed_rad_s=g('max_surface_speed_rad_s'),
+                                    time_step_s=aligned_step(scenario.time_step
+                                                             * scenario.time_unit_s, sample_s),
+                                    start_above_bottom_m=self.timeline.bit_above_bottom_m
+                                    if at_rest else None)
+            self.twin.warm_up()  # compile/run the kernels now, not in the first tick
         self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
         self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
         self.health = EventWindow(HEALTH_WINDOW_S)
@@ -98,6 +116,10 @@ class TwinNode(Node):
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
         self.create_subscription(Float64, 'hook_load_setpoint', self._on_hook_load, SETPOINT_QOS)
         self.create_subscription(Float64, 'surface_speed_command', self._on_command, COMMAND_QOS)
+        self.create_subscription(Float64, 'block_velocity_setpoint', self._on_block,
+                                 SETPOINT_QOS)
+        self.driller = None
+        self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
         roles = ('measurement', 'advisory', 'diagnostics') + (('clock',) if self.fast else ())
         self.pub = {t.name: (message_class(t.type), self.create_publisher(
             message_class(t.type), t.name, qos_profile(t.qos)))
@@ -105,7 +127,7 @@ class TwinNode(Node):
         self.recorder = None
         if g('record_path'):
             self.recorder = TwinRecorder(
-                g('record_path'), self.twin, g('config'), overrides,
+                g('record_path'), self.twin, config, overrides,
                 namespace=self.get_namespace(), node=self.get_fully_qualified_name(),
                 chunk_period_s=g('record_chunk_period_s'),
                 settings={'publish_rate_hz': g('publish_rate_hz'),
@@ -118,6 +140,8 @@ class TwinNode(Node):
         self.create_timer(0.1, self._advise)
         self.create_timer(1.0, self._publish_diagnostics)
         self._timer = self.create_timer(self._tick_period(), self._tick)
+        if self.timeline is not None:
+            self._start_scenario()
         self.get_logger().info(
             f'twin of {self.twin.scenario.model.name} running, step {self.twin.step_s:.2e} s, '
             f'hook load {self.twin.hook_load_N:.0f} N, surface speed '
@@ -152,24 +176,89 @@ class TwinNode(Node):
             return False
 
     def _on_speed(self, msg):
-        if self._apply_speed(msg.data, 'surface_speed_setpoint'):
-            self.arbiter.on_operator(msg.data, time.monotonic())
+        self._operator_takes_over('surface_speed_setpoint')
+        self._operator_speed(msg.data)
+
+    def _operator_speed(self, value):
+        if self._apply_speed(value, 'surface_speed_setpoint'):
+            self.arbiter.on_operator(value, time.monotonic())
             self._advice_due = 0.0  # the advisory follows the new set-point at once
+
+    def _on_block(self, msg):
+        self._operator_takes_over('block_velocity_setpoint')
+        self._apply_block(msg.data)
+
+    def _apply_block(self, value):
+        if self.recorder is not None:
+            self.recorder.setpoint('block_velocity_setpoint', value)
+        try:
+            self.twin.set_block_velocity(value)
+        except SetpointError as exc:
+            self.health.add('rejected', time.monotonic())
+            self.get_logger().warning(f'rejected block_velocity_setpoint: {exc}')
+
+    # --- operations scenarios ----------------------------------------------------------
+    def _start_scenario(self):
+        self.driller = Driller(self.twin, self.timeline, self._driller_apply)
+        self.get_logger().info(f'scenario {self.timeline.path.name}: '
+                               f'{len(self.timeline.steps)} steps')
+
+    def _on_start_scenario(self, request, response):
+        if self.timeline is None:
+            response.success = False
+            response.message = 'no scenario: start the node with -p scenario:=FILE'
+            return response
+        self._start_scenario()
+        response.success = True
+        response.message = f'scenario {self.timeline.path.name} started'
+        return response
+
+    def _driller_apply(self, name, value):
+        if name == 'surface_speed_setpoint':
+            self._operator_speed(value)
+        elif name == 'block_velocity_setpoint':
+            self._apply_block(value)
+        else:
+            self._apply_hook_load(value)
+
+    def _operator_takes_over(self, topic):
+        if self.driller is not None and not self.driller.done:
+            step = self.driller.step
+            self.driller = None
+            self.get_logger().warning(f'{topic} from the operator: scenario stopped at '
+                                      f'{step.label}')
+
+    def _drive_scenario(self, dt):
+        if self.driller is None or self.driller.done:
+            return
+        previous = self.driller.index
+        try:
+            self.driller.tick(dt)
+        except ScenarioError as exc:
+            self.get_logger().error(f'scenario stopped: {exc}')
+            self.driller = None
+            return
+        if self.driller.index != previous:
+            self.get_logger().info(self.driller.step.label if not self.driller.done
+                                   else 'scenario done')
 
     def _on_command(self, msg):
         if self._apply_speed(msg.data, 'surface_speed_command'):
             self.arbiter.on_command(msg.data, time.monotonic())
 
     def _on_hook_load(self, msg):
+        self._operator_takes_over('hook_load_setpoint')
+        self._apply_hook_load(msg.data)
+
+    def _apply_hook_load(self, value):
         if self.recorder is not None:
-            self.recorder.setpoint('hook_load_setpoint', msg.data)
+            self.recorder.setpoint('hook_load_setpoint', value)
         try:
-            self.twin.set_hook_load(msg.data)
+            self.twin.set_hook_load(value)
             self._advice_due = 0.0
         except SetpointError as exc:
             self.health.add('rejected', time.monotonic())
-            self.get_logger().warning(f'rejected hook_load_setpoint: {exc}; keeping '
-                                      f'{self.twin.hook_load_N:.0f} N')
+            self.get_logger().warning(f'rejected hook_load_setpoint: {exc}')
 
     # --- parameters: validate on set, apply after ------------------------------------
     def _validate_parameters(self, params):
@@ -212,11 +301,15 @@ class TwinNode(Node):
             self.get_logger().warning('controller commands stopped: back to the operator '
                                       'set-point')
             self._apply_speed(back, 'surface_speed_setpoint')
-        if self.fast:
-            target, budget = self.twin.time_s + 1.0 / self._param('publish_rate_hz'), None
+        if self.fast:  # one period (exactly: as drill-twin scenario run ticks)
+            period = 1.0 / self._param('publish_rate_hz')
+            target, budget = self.twin.time_s + period, None
         else:
             plan = self.pacer.plan(self._scheduled(wall), self.twin.time_s, self._ros_now())
             target, budget = plan.target_s, plan.max_steps
+            period = target - self.twin.time_s
+        if period > 0.0:
+            self._drive_scenario(period)
         try:
             self.twin.advance_to(target, max_steps=budget)
             m = self.twin.measurements()
@@ -320,6 +413,7 @@ class TwinNode(Node):
         (level, message), recent = self._status(now)
         values = {'simulated_time_s': round(m['time_s'], 3),
                   'speed_source': self.arbiter.source,
+                  'scenario': self._scenario_state(),
                   'delay_residual_rad': m['delay_residual_rad'],
                   'overruns': self.health.total('overrun'),
                   'overruns_last_10s': recent['overrun'],
@@ -334,6 +428,13 @@ class TwinNode(Node):
         stamp = T.stamp_fields(ns=self.get_clock().now().nanoseconds)
         self._send('/diagnostics', T.diagnostics_fields(
             stamp, level, message, {k: human(v) for k, v in values.items()}))
+
+    def _scenario_state(self) -> str:
+        if self.driller is None:
+            return 'none'
+        if self.driller.done:
+            return 'done'
+        return f'{self.driller.index + 1}/{len(self.driller.steps)} {self.driller.step.action}'
 
     def destroy_node(self):
         if self.advisor is not None:

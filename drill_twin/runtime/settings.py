@@ -56,12 +56,13 @@ TWIN_SETTINGS = (
             'share/drill_twin/config (units: si)', read_only=True),
     Setting('overrides', [''], 'configuration overrides KEY=VALUE (dotted keys)',
             read_only=True),
+    Setting('scenario', '', 'operations scenario file or name in config/operations: the '
+            'twin is built from it (instead of config/overrides) and runs its timeline; '
+            '"" = none', read_only=True),
     Setting('real_time_factor', 1.0, 'simulated seconds per wall second', '', 0.01, 1000.0),
     Setting('publish_rate_hz', 100.0, 'measurement publish rate', 'Hz', 1.0, 2000.0),
     Setting('drive_time_constant_s', 0.0, 'speed-drive lag, 0 = stiff drive', 's', 0.0, 10.0,
             read_only=True),
-    Setting('mud_density_kg_m3', 1200.0, 'mud density (buoyed weight: hook load <-> WOB)',
-            'kg/m^3', 0.0, 3000.0, read_only=True),
     Setting('max_surface_speed_rad_s', 40.0, 'largest accepted surface-speed set-point',
             'rad/s', 0.1, 100.0),
     Setting('command_timeout_s', 0.5, 'controller commands older than this are ignored '

@@ -129,7 +129,7 @@ def stability_chart(raw: dict, x_key: str, xs, y_key: str, ys, workers: int | No
 
 
 def plot_chart(chart: ChartResult, path, title: str = '', ax=None, color='tab:blue',
-               label=None):
+               label=None, d_curves: bool = True):
     """Shade the stable region, draw the D-curves (changes of the unstable-root count)."""
     import matplotlib
     matplotlib.use('Agg')
@@ -146,7 +146,7 @@ def plot_chart(chart: ChartResult, path, title: str = '', ax=None, color='tab:bl
     pairs = (np.where(chart.unstable < 0, 0, chart.unstable) + 1) // 2
     top = max(int(np.nanmax(pairs)), 1)
     cs = ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0),
-                    colors='k', linewidths=0.6)
+                    colors='k', linewidths=0.6) if d_curves else None
     if label:
         ax.plot([], [], color=color, lw=6, alpha=0.35, label=label)
     ax.set_xlabel(chart.x_key)

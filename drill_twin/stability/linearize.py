@@ -21,6 +21,19 @@ With ``y = [u, u', φ, φ']`` the chains of :mod:`drill_twin.physics.models` giv
 For RGD-2 (masses 1/2) this gives A0[3,3] = -4 + 2 n_b α_o and
 A1[1,3] = -2 n_b ψ α_o, where the printed eq. 5.1.1 has -2(2 + n_b α_o) and
 +2 n_b ψ α_o: the two sign errors of the thesis.
+
+Uneven blades (§6.2: "multiple delays per one particular bit design")
+---------------------------------------------------------------------
+Blade b cuts the rock the blade ahead of it left one gap Δθ_b earlier: its delay is
+τ_b(τ) with Φ(τ - τ_b) = Φ(τ) - Δθ_b, steady value τ_b,0 = Δθ_b/ω_o and steady depth
+υ_o τ_b,0 (the depths differ; their sum is still υ_o 2π/ω_o = n_b δ_o, so the steady
+state and W_o = n_b(δ_o + λ) are those of the even bit).  Linearised exactly as above,
+each blade contributes ``s(τ) - s(τ - τ_b,0)`` with the same ``s = u_b - α_o φ_b``, so
+
+    y' = A0 y + Σ_b (A1 / n_b) y(τ - τ_b,0)
+
+— the even bit is the case where all n_b delays coincide.  Blades with equal gaps
+are grouped into one delayed term.
 """
 from __future__ import annotations
 
@@ -107,6 +120,16 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         A1[w] += np.outer(col_t, sel)
         labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
     extra = []
+    delay = groups.tau_10
+    if groups.uneven:  # one delayed term per distinct blade gap, each 1/n_b of the force
+        delays = {}
+        for tau_b in groups.blade_delays:
+            key = round(tau_b, 12)
+            delays[key] = delays.get(key, 0) + 1
+        (delay, count), *rest = sorted(delays.items())
+        A1_total = A1
+        A1 = A1_total * (count / nb)
+        extra += [(A1_total * (k / nb), tau) for tau, k in rest]
     if model.delayed_damping is not None:  # lumped model III (single masses)
         z_a, tau_a, z_t, tau_t = model.delayed_damping
         B = np.zeros((n, n))
@@ -115,7 +138,7 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         B = np.zeros((n, n))
         B[2 * na + nt, 2 * na + nt] = -z_t / tr.dense('mass')[0, 0]
         extra.append((B, tau_t))
-    return LinearDDE(A0, A1, groups.tau_10, labels, extra)
+    return LinearDDE(A0, A1, delay, labels, extra)
 
 
 def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: float,
