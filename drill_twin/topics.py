@@ -19,7 +19,7 @@ from dataclasses import dataclass
 __all__ = ['QoS', 'Topic', 'TOPICS', 'BY_NAME', 'SENSOR', 'SETPOINT', 'COMMAND', 'EVENTS',
            'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
            'FLOAT64', 'MEASUREMENTS', 'PARAMETER_EVENTS', 'parameter_event_fields',
-           'parameter_value_fields', 'parameter_value']
+           'parameter_value_fields', 'parameter_value', 'SURFACE_INPUTS', 'ESTIMATE_TOPICS']
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ TOPICS = (
     Topic('bit/height_above_bottom', FLOAT64, SENSOR, 'measurement',
           _float('bit_above_bottom_m')),
     Topic('surface/top_drive_speed', FLOAT64, SENSOR, 'measurement',
-          _float('surface_speed_rad_s')),
+          _float('top_drive_speed_rad_s')),
     Topic('surface/torque', FLOAT64, SENSOR, 'measurement', _float('surface_torque_Nm')),
     Topic('surface/hook_load', FLOAT64, SENSOR, 'measurement', _float('hook_load_N')),
     Topic('surface/block_velocity', FLOAT64, SENSOR, 'measurement',
@@ -113,6 +113,43 @@ TOPICS = (
 )
 BY_NAME = {t.name: t for t in TOPICS}
 MEASUREMENTS = tuple(t for t in TOPICS if t.role == 'measurement')
+#: what ``downhole_estimator`` reads (a real rig's topics are remapped onto these)
+SURFACE_INPUTS = ('surface/top_drive_speed', 'surface/torque', 'surface/hook_load',
+                  'surface/block_velocity')
+
+
+def _covariance(variances: dict) -> list:
+    """Row-major 6×6 covariance of (x, y, z, rot x, rot y, rot z) with the given diagonal
+    entries (index: variance); the components not estimated are left at 0."""
+    cov = [0.0] * 36
+    for index, value in variances.items():
+        cov[7 * index] = float(value)
+    return cov
+
+
+#: the downhole estimator's outputs, from an :class:`~drill_twin.estimation.Estimate` as a
+#: dict (``dataclasses.asdict``); frame ``bit`` as for the twin's bit topics
+ESTIMATE_TOPICS = (
+    Topic('estimate/bit/velocity', 'geometry_msgs/msg/TwistWithCovarianceStamped', SENSOR,
+          'estimate', lambda e, st: {'header': _header(st), 'twist': {
+              'twist': {'linear': {'x': _finite(e['bit_axial_speed_m_s'])},
+                        'angular': {'x': float(e['bit_speed_rad_s'])}},
+              'covariance': _covariance({3: e['bit_speed_std'] ** 2})}}),
+    Topic('estimate/bit/wrench', 'geometry_msgs/msg/WrenchStamped', SENSOR, 'estimate',
+          lambda e, st: {'header': _header(st), 'wrench': {
+              'force': {'x': _finite(e['weight_on_bit_N'])},
+              'torque': {'x': float(e['torque_on_bit_Nm'])}}}),
+    Topic('estimate/bit/stuck', 'std_msgs/msg/Bool', SENSOR, 'estimate',
+          lambda e, st: {'data': bool(e['stuck'])}),
+    Topic('estimate/stick_slip_severity', FLOAT64, SENSOR, 'estimate',
+          lambda e, st: {'data': float(e['stick_slip_severity'])}),
+)
+
+
+def _finite(value) -> float:
+    """NaN (not estimated: no hook load / block velocity) is published as 0."""
+    value = float(value)
+    return value if value == value else 0.0
 
 
 def measurement_messages(m: dict, stamp: dict):

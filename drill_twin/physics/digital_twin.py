@@ -223,6 +223,7 @@ class DigitalTwin:
             'depth_of_cut_m': snap['depth_of_cut'] * s.depth_m,
             'rate_of_penetration_m_s': snap['bit_axial_speed'] * s.speed_m_s,
             'surface_speed_rad_s': snap['surface_speed'] / s.time_s,
+            'top_drive_speed_rad_s': snap['top_drive_speed'] / s.time_s,
             'surface_torque_Nm': snap['surface_torque'] * s.torque_Nm,
             'hook_load_N': hook,
             'block_velocity_m_s': snap['top_axial_speed'] * s.speed_m_s,

@@ -78,7 +78,9 @@ class Top(NamedTuple):
     ``omega_o, upsilon_o, W_o, T_o``: steady state; ``psi``: axial force scale;
     ``k_t, c_t, m_t``: torsional coupling of DOF 0 to the motor angle θ_p;
     ``k_a, c_a``: axial coupling of DOF 0 to the block position z_p (imposed
-    velocity top or drill line of a hoist); ``drive_tau``: lag of the motor speed
+    velocity top or drill line of a hoist); ``drive_node``: 1 when DOF 0 is the
+    string's top node carrying the drive (Soft-Torque), 0 when the top is the
+    prescribed motion itself; ``drive_tau``: lag of the motor speed
     behind its command (0 = stiff); ``z_a, tau_a, z_t, tau_t``: delayed radiation
     dash-pots of lumped model III (0 otherwise).
     """
@@ -93,6 +95,7 @@ class Top(NamedTuple):
     m_t: float
     k_a: float
     c_a: float
+    drive_node: float
     drive_tau: float
     z_a: float
     tau_a: float
@@ -113,7 +116,7 @@ RECORD_CHANNELS = ('tau', 'bit_axial_speed', 'bit_angular_speed', 'weight_on_bit
                    'angular_stick', 'axial_mode', 'contact', 'surface_torque',
                    'surface_speed', 'bit_axial_perturbation', 'bit_angle_perturbation',
                    'top_axial_speed', 'stick_time', 'hook_load_change', 'bit_position',
-                   'bit_angle', 'block_position', 'top_angle_perturbation')
+                   'bit_angle', 'block_position', 'top_angle_perturbation', 'top_drive_speed')
 N_RECORD = len(RECORD_CHANNELS)
 # aux values of the right-hand side --------------------------------------------------------
 X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH = 0, 1, 2, 3, 4, 5, 6, 7, 8
@@ -611,10 +614,17 @@ def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th,
     for b in range(law.offsets.size):
         contact += mode[MD_CONTACT + b]
     row[10] = 1.0 if contact > 0 else 0.0
-    if nt > 0:
-        row[11] = top.T_o + top.k_t * (x[d] - x[2 * na]) + top.c_t * (x[d + 1] - x[2 * na + nt])
+    p0, w0 = 2 * na, 2 * na + nt      # top torsional DOF: angle, speed
+    if nt > 1 and top.drive_node > 0.0:  # torque in the string's first element
+        row[11] = top.T_o - T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) \
+            - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
+        row[22] = top.omega_o + x[w0]
+    elif nt > 0:                        # the coupling to the prescribed top
+        row[11] = top.T_o + top.k_t * (x[d] - x[p0]) + top.c_t * (x[d + 1] - x[w0])
+        row[22] = top.omega_o + x[d + 1]
     else:
         row[11] = w.aux[X_T]
+        row[22] = top.omega_o + x[d + 1]
     row[12] = top.omega_o + x[d + 1]
     row[13] = x[na - 1]
     row[14] = x[2 * na + nt - 1] if nt > 0 else x[d]

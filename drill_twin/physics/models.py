@@ -47,7 +47,10 @@ class Chain:
 
     ``mass``, ``damping``, ``stiffness`` have shape (3, n): rows lower, diag,
     upper (``lower[0]`` and ``upper[-1]`` unused).  ``k_top``, ``c_top``,
-    ``m_top`` couple DOF 0 to the prescribed top motion.
+    ``m_top`` couple DOF 0 to the prescribed top motion.  ``drive_node``: DOF 0 is the
+    string's top node carrying the drive (Soft-Torque: the drive inertia on its spring),
+    so the top-drive speed is that node's speed and the torque at the top of the string
+    is the first element's; otherwise the top node is the prescribed motion itself.
     """
 
     mass: np.ndarray
@@ -56,6 +59,7 @@ class Chain:
     k_top: float = 0.0
     c_top: float = 0.0
     m_top: float = 0.0
+    drive_node: bool = False
 
     @property
     def n(self) -> int:
@@ -184,7 +188,8 @@ def fem_chain(element_lengths, stiffness_per_length, mass_per_length, eta, theta
                       c_top=-C[1, 0], m_top=-M[1, 0])
     else:
         chain = Chain(mass=_tri_from_dense(M), damping=_tri_from_dense(C),
-                      stiffness=_tri_from_dense(K), k_top=top_spring, c_top=top_dashpot)
+                      stiffness=_tri_from_dense(K), k_top=top_spring, c_top=top_dashpot,
+                      drive_node=top_mass > 0 or top_spring > 0)
     return chain
 
 

@@ -55,6 +55,7 @@ def top_coupling(model: StringModel, groups: BitRockGroups, drive_time_constant:
                  c_t=float(tors.c_top) if tors is not None else 0.0,
                  m_t=float(tors.m_top) if tors is not None else 0.0,
                  k_a=float(model.axial.k_top), c_a=float(model.axial.c_top),
+                 drive_node=1.0 if tors is not None and tors.drive_node else 0.0,
                  drive_tau=float(drive_time_constant), z_a=float(z_a), tau_a=float(tau_a),
                  z_t=float(z_t), tau_t=float(tau_t))
 

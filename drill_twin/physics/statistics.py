@@ -21,6 +21,7 @@ SERIES_UNITS = {
     'delay_residual': ('rad', 'rad', None),
     'surface_torque': ('N*m', 'C', 'torque_Nm'),
     'surface_speed': ('rad/s', '1/t*', 'inv_time'),
+    'top_drive_speed': ('rad/s', '1/t*', 'inv_time'),
     'top_axial_speed': ('m/s', 'd*/t*', 'speed_m_s'),
     'bit_axial_perturbation': ('m', 'd*', 'depth_m'),
     'bit_angle_perturbation': ('rad', 'rad', None),
