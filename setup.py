@@ -41,6 +41,7 @@ setup(
             'twin_node = drill_twin.ros.entry:twin_node',
             'soft_torque_node = drill_twin.ros.entry:soft_torque_node',
             'mcap_recorder = drill_twin.ros.entry:mcap_recorder',
+            'downhole_estimator = drill_twin.ros.entry:downhole_estimator',
         ],
     },
 )

@@ -259,6 +259,37 @@ def bench_stability(smoke):
             's', '', None, f'abscissa {r.abscissa:.4f}/t*')
 
 
+# --- 4b: downhole estimator ------------------------------------------------------------
+
+def bench_estimator(smoke):
+    """The estimator on the benchmark string (58 elements: 117 torsional + 119 axial
+    states) at 100 Hz with both axes, and one self-tuning fit of 60 s of data."""
+    from drill_twin.estimation.estimator import DownholeEstimator, SurfaceSample
+    sc = load_scenario('benchmark_fem')
+    t0 = time.perf_counter()
+    est = DownholeEstimator(sc, 100.0)
+    build = time.perf_counter() - t0
+    rng = np.random.default_rng(0)
+    n = 2000 if smoke else 30000
+    speed = 12.57 + 0.1 * rng.standard_normal(n)
+    torque = 5000.0 + 100.0 * rng.standard_normal(n)
+    hook = sc.system.buoyed_weight_N() - 60.5e3 + 1e4 * rng.standard_normal(n)
+    samples = [SurfaceSample(a, b, c, 0.0) for a, b, c in zip(speed, torque, hook)]
+    est.start(samples[0])
+    t0 = time.perf_counter()
+    est.run(samples)
+    wall = time.perf_counter() - t0
+    factor = n / 100.0 / wall
+    row('estimator', 'downhole estimate at 100 Hz, benchmark string', f'{factor:.0f}',
+        'x real time', '>= 100', factor >= 100, f'{1e6 * wall / n:.0f} us per sample; '
+        f'filters built in {build:.2f} s')
+    if not smoke:
+        t0 = time.perf_counter()
+        fit = est.fit(speed[:6000], torque[:6000])
+        row('estimator', 'self-tuning fit of 60 s at 100 Hz', f'{time.perf_counter() - t0:.1f}',
+            's', '', None, f'{fit.evaluations} filter runs')
+
+
 # --- 5: nodes ------------------------------------------------------------------------
 
 def bench_nodes(smoke):
@@ -599,7 +630,7 @@ def main():
     print(f'{"section":<10} {"item":<46} {"value":>12} {"unit":<12} {"target":<14} '
           f'{"status":<8} note')
     parts = (bench_rtf, bench_scaling, bench_numpy_peer, bench_physical_limit,
-             bench_stability, bench_nodes, bench_realtime_under_load, bench_memory,
+             bench_stability, bench_estimator, bench_nodes, bench_realtime_under_load, bench_memory,
              bench_recording_soak, bench_recording, bench_jitcdde)
     for part in parts:
         if not args.only or part.__name__[len('bench_'):] in args.only:

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .console import print_summary
+from .estimation.cli import add_parsers as add_estimation_parsers
 from .io.mcap_reader import RecordingError
 from .operations.cli import add_parsers as add_operations_parsers
 from .physics.digital_twin import SetpointError
@@ -486,6 +487,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_reproduce)
     add_recording_parsers(sub)
     add_operations_parsers(sub)
+    add_estimation_parsers(sub)
     return p
 
 

@@ -7,12 +7,14 @@ By default the run is recorded to ``$ROS_HOME/drill_twin/drill_twin_<UTC time>.m
 (simulated log time, set-points at the time they were applied) so that
 ``drill-twin replay run.mcap --resimulate`` reproduces the run; to record other
 topics or another graph, run ``ros2 run drill_twin mcap_recorder``.
+``estimator:=true`` also starts ``downhole_estimator`` on the twin's surface topics.
 """
 import datetime
 import os
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
@@ -31,9 +33,14 @@ def generate_launch_description():
                               description="MCAP file of the run ('' = no recording)"),
         DeclareLaunchArgument('config', default_value='benchmark_fem',
                               description='configuration name or file (units: si)'),
+        DeclareLaunchArgument('estimator', default_value='false',
+                              description='start downhole_estimator beside the twin'),
         Node(package='drill_twin', executable='twin_node', name='drill_twin',
              parameters=[{'config': config, 'real_time_factor': 1.0,
                           'record_path': LaunchConfiguration('record_path')}]),
         Node(package='drill_twin', executable='soft_torque_node', name='soft_torque',
              parameters=[{'config': config, 'control_rate_hz': 100.0}]),
+        Node(package='drill_twin', executable='downhole_estimator', name='downhole_estimator',
+             parameters=[{'config': config, 'rate_hz': 100.0}],
+             condition=IfCondition(LaunchConfiguration('estimator'))),
     ])

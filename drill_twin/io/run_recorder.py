@@ -175,10 +175,12 @@ def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config
     after the current tick (what a signal handler should set: an exception raised in the
     middle of a write would leave the writer's indexes inconsistent).  The recording is
     closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
-    from ..physics.digital_twin import DigitalTwin
+    from ..physics.digital_twin import DigitalTwin, aligned_step
     if not (rate_hz > 0 and duration_s > 0):
         raise ParameterError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
-    twin = DigitalTwin(scenario)
+    # the integration step divides the tick, as in the node: samples every 1/rate_hz exactly
+    twin = DigitalTwin(scenario, time_step_s=aligned_step(
+        scenario.time_step * scenario.time_unit_s, 1.0 / rate_hz))
     rec = TwinRecorder(path, twin, config, overrides, chunk_period_s=chunk_period_s,
                        settings={'publish_rate_hz': rate_hz, 'source': 'drill-twin simulate'})
     ticks = int(round(duration_s * rate_hz))

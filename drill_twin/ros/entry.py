@@ -15,7 +15,7 @@ import sys
 from contextlib import contextmanager
 
 __all__ = ['install_quiet_signals', 'rclpy_took_over', 'interruptible', 'twin_node',
-           'soft_torque_node', 'mcap_recorder']
+           'soft_torque_node', 'mcap_recorder', 'downhole_estimator']
 
 _ROS_HANDLES_SIGNALS = [False]
 _INTERRUPTIBLE = [False]
@@ -74,3 +74,7 @@ def soft_torque_node() -> int:
 
 def mcap_recorder() -> int:
     return _run('drill_twin.ros.recorder_node')
+
+
+def downhole_estimator() -> int:
+    return _run('drill_twin.ros.estimator_node')

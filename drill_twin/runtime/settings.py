@@ -11,8 +11,8 @@ import math
 import os
 from dataclasses import dataclass
 
-__all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'RECORDER_SETTINGS', 'check',
-           'ros_home']
+__all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'RECORDER_SETTINGS',
+           'ESTIMATOR_SETTINGS', 'check', 'ros_home']
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,32 @@ RECORDER_SETTINGS = (
             read_only=True),
     Setting('chunk_period_s', 0.25, 'longest span one chunk holds = most a kill can lose', 's',
             0.01, 10.0, read_only=True),
+)
+
+ESTIMATOR_SETTINGS = (
+    Setting('config', 'benchmark_fem', 'string configuration of the estimator\'s model '
+            '(units: si, model.type: fem)', read_only=True),
+    Setting('overrides', [''], 'configuration overrides KEY=VALUE (dotted keys)',
+            read_only=True),
+    Setting('rate_hz', 100.0, 'sampling and update rate', 'Hz', 10.0, 1000.0, read_only=True),
+    Setting('speed_noise_rad_s', 0.157, 'standard deviation of the top-drive speed sensor',
+            'rad/s', 1e-6, 100.0, read_only=True),
+    Setting('torque_noise_Nm', 100.0, 'standard deviation of the surface torque sensor',
+            'N m', 1e-6, 1e6, read_only=True),
+    Setting('hook_load_noise_N', 1.0e4, 'standard deviation of the hook-load sensor', 'N',
+            1e-6, 1e8, read_only=True),
+    Setting('block_velocity_noise_m_s', 5.0e-3, 'standard deviation of the block velocity',
+            'm/s', 1e-9, 10.0, read_only=True),
+    Setting('torque_rate_Nm', 10.0, 'random-walk intensity of the torque on bit',
+            'N m/s^0.5', 1e-3, 1e6, read_only=True),
+    Setting('measurement_timeout_s', 0.5, 'surface-torque silence before the estimates are '
+            'held (and diagnostics warn)', 's', 0.01, 60.0),
+    Setting('self_tuning_period_s', 120.0, 'period of the self-tuning fit, 0 = off', 's',
+            0.0, 3600.0),
+    Setting('tuning_window_s', 60.0, 'surface data the self-tuning fit uses', 's', 20.0,
+            600.0, read_only=True),
+    Setting('self_tuning_apply', True, 'continue on the fitted string (false: only report '
+            'the fit and the mismatch warning)'),
 )
 
 

@@ -1,0 +1,314 @@
+"""What the bit does, from surface measurements only (docs/estimation.md).
+
+:class:`DownholeEstimator` runs two :class:`~drill_twin.estimation.chain_observer.ChainObserver`
+filters on the string model of a configuration — torsion (input: top-drive speed,
+measured: surface torque; unknown: torque on bit) and, when hook load and block velocity
+are measured, the axial string (input: hook load; measured: block velocity; unknown:
+weight on bit) — and adds what follows from the bit/rock interface law without its
+parameters:
+
+* **no backward rotation** (§3.3): on bottom the bit cannot turn backwards; the estimate
+  is projected on ω_bit ≥ 0 with the filter's covariance;
+* **stuck**: the bit's speed is indistinguishable from zero — the estimate is below
+  ``stuck_z`` (1.645: one-sided 95 %) posterior standard deviations (a statistical
+  test, not a velocity threshold: it scales with what the sensors allow);
+* **stick-slip severity**: (max − min)/(2 mean) of the estimated bit speed over the last
+  ``severity_window_s`` (the twin's own definition);
+* **innovation statistics**: the normalised innovation squared ν²/S of each filter
+  averaged over ``monitor_window_s`` (for diagnostics: during stick-slip the bit torque
+  jumps at every transition, so even the exact model's mean is 4-6, not the χ² value 1);
+* **model mismatch and self-tuning** (:mod:`.tuning`): the last ``tuning_window_s`` of
+  surface speed and torque are kept; :meth:`DownholeEstimator.self_tune` fits the string
+  to them, flags a mismatch when the fit is clearly better and its first mode or BHA
+  inertia is off by more than the tolerance, and (``apply``) continues on the fitted
+  string.
+
+Everything is SI; one update costs two matrix-vector products per axis.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .chain_observer import AxisModel, ChainObserver, axial_axis, torsional_axis
+from .tuning import TorsionalFit, fit_torsional
+
+__all__ = ['SensorNoise', 'SurfaceSample', 'Estimate', 'EstimatorTuning',
+           'DownholeEstimator']
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Standard deviations of the surface measurements (white, per sample).
+
+    The default is the issue's specification on a rig sized for the benchmark string:
+    0.5 % of a 300 rpm (31.4 rad/s) speed range, 1 % of a 10 kN·m torque range, 1 % of a
+    1 MN hook-load range, 0.5 % of a 1 m/s block-velocity range.
+    """
+
+    speed_rad_s: float = 0.005 * 31.4159
+    torque_Nm: float = 0.01 * 10.0e3
+    hook_load_N: float = 0.01 * 1.0e6
+    block_velocity_m_s: float = 0.005 * 1.0
+
+    def __post_init__(self):
+        for name in ('speed_rad_s', 'torque_Nm', 'hook_load_N', 'block_velocity_m_s'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f'sensor noise {name} must be finite and > 0, got {value!r}')
+
+
+@dataclass(frozen=True)
+class EstimatorTuning:
+    """Design parameters of the filters (docs/estimation.md §3).
+
+    ``torque_rate_Nm``: random-walk intensity of the torque on bit [N·m/√s];
+    ``wob_rate_N``: of the weight on bit [N/√s]; ``stuck_z``: the stuck test's number of
+    standard deviations; ``severity_window_s``, ``monitor_window_s`` [s];
+    ``tuning_window_s``: surface data kept for self-tuning [s];
+    ``tuning_torque_rate_Nm``: the bit-torque random walk of the fit's filters (fast, so
+    that the stick-slip torque jumps do not bias the string parameters, §5);
+    ``mismatch_tolerance``: relative first-mode or BHA-inertia change that is a mismatch;
+    ``retune_improvement``: innovation-power reduction for which a confirmed fit replaces
+    the model.
+    """
+
+    torque_rate_Nm: float = 10.0
+    wob_rate_N: float = 2000.0
+    stuck_z: float = 1.645
+    severity_window_s: float = 10.0
+    monitor_window_s: float = 10.0
+    tuning_window_s: float = 60.0
+    tuning_torque_rate_Nm: float = 3000.0
+    mismatch_tolerance: float = 0.2
+    retune_improvement: float = 0.25
+
+
+@dataclass(frozen=True)
+class SurfaceSample:
+    """One sample of the rig's surface measurements (SI); the axial pair may be NaN."""
+
+    surface_speed_rad_s: float
+    surface_torque_Nm: float
+    hook_load_N: float = math.nan
+    block_velocity_m_s: float = math.nan
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The estimator's output after one sample (SI; ``*_std``: posterior standard
+    deviations; ``nis_*``: windowed mean normalised innovation squared)."""
+
+    time_s: float
+    bit_speed_rad_s: float
+    bit_speed_std: float
+    stuck: bool
+    torque_on_bit_Nm: float
+    torque_on_bit_std: float
+    weight_on_bit_N: float
+    weight_on_bit_std: float
+    bit_axial_speed_m_s: float
+    stick_slip_severity: float
+    nis_torsional: float
+    nis_axial: float
+    model_mismatch: bool
+
+
+@dataclass
+class _Monitor:
+    """Windowed mean of the normalised innovation squared, and its alarm bound."""
+
+    size: int
+    values: deque = field(default_factory=deque)
+    total: float = 0.0
+
+    def add(self, nis: float) -> float:
+        self.values.append(nis)
+        self.total += nis
+        if len(self.values) > self.size:
+            self.total -= self.values.popleft()
+        return self.total / len(self.values)
+
+
+class _RunningRange:
+    """Minimum, maximum and mean of the last ``size`` values in O(1) per value
+    (monotonic deques of (index, value); the mean from a running sum re-summed every
+    ``size`` values against round-off)."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self.values = deque()
+        self.low, self.high = deque(), deque()
+        self.total = 0.0
+        self.count = 0
+
+    def add(self, value: float) -> tuple[float, float, float]:
+        i = self.count
+        self.count += 1
+        self.values.append(value)
+        self.total += value
+        if len(self.values) > self.size:
+            self.total -= self.values.popleft()
+        if self.count % self.size == 0:
+            self.total = sum(self.values)
+        for q, worse in ((self.low, lambda a, b: a >= b), (self.high, lambda a, b: a <= b)):
+            while q and worse(q[-1][1], value):
+                q.pop()
+            q.append((i, value))
+            if q[0][0] <= i - self.size:
+                q.popleft()
+        return self.low[0][1], self.high[0][1], self.total / len(self.values)
+
+
+class DownholeEstimator:
+    """Downhole estimates of a string given by a scenario (its finite-element model).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An SI finite-element configuration: the estimator's model of the string.
+    rate_hz : float
+        Sample rate of the surface measurements [Hz] (10-1000).
+    noise : SensorNoise
+    tuning : EstimatorTuning
+    torsional, axial : AxisModel, optional
+        Replace the scenario's axes (a deliberately wrong or a re-tuned model).
+    """
+
+    def __init__(self, scenario, rate_hz: float = 100.0, noise: SensorNoise = SensorNoise(),
+                 tuning: EstimatorTuning = EstimatorTuning(),
+                 torsional: AxisModel | None = None, axial: AxisModel | None = None):
+        if not (math.isfinite(rate_hz) and 1.0 <= rate_hz <= 10000.0):
+            raise ValueError(f'rate_hz {rate_hz!r} outside [1, 10000] Hz')
+        if scenario.model.torsional is None or scenario.model.element_lengths_m is None:
+            raise ValueError('the estimator needs a finite-element string (model.type: fem)')
+        self.scenario = scenario
+        self.rate_hz = float(rate_hz)
+        self.noise, self.tuning = noise, tuning
+        self.weight_N = scenario.system.buoyed_weight_N()
+        self.torsional_model = torsional or torsional_axis(scenario)   # as configured
+        self.active_model = self.torsional_model                           # after tuning
+        self.torsion = self._torsion_filter(self.torsional_model)
+        keep = max(1, round(tuning.tuning_window_s * rate_hz))
+        self._history = (deque(maxlen=keep), deque(maxlen=keep))
+        self.last_fit: TorsionalFit | None = None
+        self.model_mismatch = False
+        self.axial = None
+        if scenario.raw['model'].get('axial_top', 'hook_load') != 'velocity':
+            self.axial = ChainObserver(axial or axial_axis(scenario, self.weight_N),
+                                       1.0 / rate_hz, noise.hook_load_N,
+                                       noise.block_velocity_m_s, tuning.wob_rate_N)
+        window = max(1, round(tuning.monitor_window_s * rate_hz))
+        self._nis = {'torsional': _Monitor(window), 'axial': _Monitor(window)}
+        self._speeds = _RunningRange(max(1, round(tuning.severity_window_s * rate_hz)))
+        self.time_s = 0.0
+        self.started = False
+
+    def _torsion_filter(self, axis: AxisModel) -> ChainObserver:
+        return ChainObserver(axis, 1.0 / self.rate_hz, self.noise.speed_rad_s,
+                             self.noise.torque_Nm, self.tuning.torque_rate_Nm)
+
+    # --- start -----------------------------------------------------------------------
+    def start(self, sample: SurfaceSample):
+        """Initialise in steady drilling at the sample: turning at the surface speed with
+        the surface torque on the bit (no twist rate) and, axially, the weight on bit that
+        balances the hook load."""
+        self.torsion.start(sample.surface_speed_rad_s, sample.surface_torque_Nm)
+        if self.axial is not None and math.isfinite(sample.hook_load_N):
+            self.axial.start(-sample.hook_load_N, self.weight_N - sample.hook_load_N)
+        self.started = True
+
+    # --- one sample ---------------------------------------------------------------------
+    def update(self, sample: SurfaceSample) -> Estimate:
+        """Fold in one sample (taken one period after the previous one)."""
+        if not self.started:
+            self.start(sample)
+        self.time_s += 1.0 / self.rate_hz
+        tors = self.torsion
+        nu = tors.update(sample.surface_speed_rad_s, sample.surface_torque_Nm)
+        self._history[0].append(sample.surface_speed_rad_s)
+        self._history[1].append(sample.surface_torque_Nm)
+        nis_t = self._nis['torsional'].add(nu * nu / tors.innovation_var)
+        nis_a = math.nan
+        wob, wob_std, rop = math.nan, math.nan, math.nan
+        ax = self.axial
+        if ax is not None:
+            if math.isfinite(sample.hook_load_N) and math.isfinite(sample.block_velocity_m_s):
+                nu_a = ax.update(-sample.hook_load_N, sample.block_velocity_m_s)
+                nis_a = self._nis['axial'].add(nu_a * nu_a / ax.innovation_var)
+            else:
+                ax.predict()
+            wob, wob_std = ax.x[ax.bit_force], ax.std(ax.bit_force)
+            rop = ax.x[ax.bit_velocity]
+        if not (wob <= 0.0):   # on bottom (or unknown): the bit does not turn backwards
+            tors.clamp_below(tors.bit_velocity, 0.0)
+        speed = float(tors.x[tors.bit_velocity])
+        speed_std = tors.std(tors.bit_velocity)
+        low, high, mean = self._speeds.add(speed)
+        severity = (high - low) / (2 * mean) if mean > 0 else 0.0
+        return Estimate(time_s=self.time_s, bit_speed_rad_s=speed, bit_speed_std=speed_std,
+                        stuck=speed < self.tuning.stuck_z * speed_std,
+                        torque_on_bit_Nm=float(tors.x[tors.bit_force]),
+                        torque_on_bit_std=tors.std(tors.bit_force),
+                        weight_on_bit_N=float(wob), weight_on_bit_std=float(wob_std),
+                        bit_axial_speed_m_s=float(rop), stick_slip_severity=float(severity),
+                        nis_torsional=float(nis_t), nis_axial=float(nis_a),
+                        model_mismatch=self.model_mismatch)
+
+    def run(self, samples) -> list[Estimate]:
+        """Every sample of an iterable, in order."""
+        return [self.update(s) for s in samples]
+
+    # --- self-tuning --------------------------------------------------------------------
+    def tuning_data(self) -> tuple[np.ndarray, np.ndarray]:
+        """The kept surface speed [rad/s] and torque [N·m] samples (oldest first)."""
+        return np.array(self._history[0]), np.array(self._history[1])
+
+    def fit(self, speed=None, torque=None) -> TorsionalFit:
+        """Fit the torsional string to the kept samples (or to ``speed``/``torque``),
+        relative to the configured model; pure (changes nothing)."""
+        if speed is None:
+            speed, torque = self.tuning_data()
+        return fit_torsional(self.torsional_model, speed, torque, self.rate_hz,
+                             self.noise.speed_rad_s, self.noise.torque_Nm,
+                             self.tuning.tuning_torque_rate_Nm,
+                             tolerance=self.tuning.mismatch_tolerance)
+
+    def apply_fit(self, fit: TorsionalFit, retune: bool = True):
+        """Take a fit.  A fit is *confirmed* when the previous one identified the same
+        string (BHA inertia and first-mode frequency within half the mismatch tolerance):
+        one stretch of weakly excited data (the growth phase before stick-slip, steady
+        drilling) can mislead a fit, two agreeing stretches rarely do.  A confirmed fit
+        sets ``model_mismatch`` (the configured model does not fit) and, with ``retune``,
+        when the fit removes at least ``retune_improvement`` of the model's innovation
+        power (the exact model's own fits gain 5-15 %: their few-% bias in BHA inertia
+        would only cost accuracy), the estimator continues on the fitted string; the
+        state (deformations, velocities, bit torque) carries over — the fitted chain has
+        the same elements."""
+        previous, self.last_fit = self.last_fit, fit
+        if previous is None or not _same_string(previous, fit,
+                                                self.tuning.mismatch_tolerance / 2):
+            return
+        self.model_mismatch = fit.mismatch and previous.mismatch
+        if retune and fit.improvement >= self.tuning.retune_improvement:
+            state = self.torsion.x.copy()
+            u = self.torsion._u
+            self.active_model = fit.axis(self.torsional_model)
+            self.torsion = self._torsion_filter(self.active_model)
+            self.torsion.x, self.torsion._u = state, u
+
+    def self_tune(self, retune: bool = True) -> TorsionalFit:
+        """:meth:`fit` on the kept samples, then :meth:`apply_fit`."""
+        fit = self.fit()
+        self.apply_fit(fit, retune)
+        return fit
+
+
+def _same_string(a: TorsionalFit, b: TorsionalFit, tolerance: float) -> bool:
+    """Two fits identify the same string: BHA inertia and first-mode frequency agree to
+    ``tolerance`` (relative)."""
+    return (abs(a.bha_inertia_scale / b.bha_inertia_scale - 1.0) <= tolerance and
+            abs(a.fitted_mode.frequency_hz / b.fitted_mode.frequency_hz - 1.0) <= tolerance)

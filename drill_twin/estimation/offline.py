@@ -1,0 +1,177 @@
+"""The estimator over a recording (``drill-twin estimate RUN.mcap``).
+
+The surface topics of an MCAP recording (the twin's, or a rig's recorded under the same
+names) are the samples, in log-time order; the sample rate is the recording's (the median
+spacing of ``surface/torque``).  Where the recording also has the twin's bit topics, they
+are the truth and the errors are computed as in :mod:`.study`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics.parameters import ParameterError
+from .estimator import DownholeEstimator, EstimatorTuning, SensorNoise, SurfaceSample
+
+__all__ = ['recording_series', 'estimate_recording', 'recording_errors', 'plot_estimate']
+
+_SURFACE = {'speed': ('surface/top_drive_speed', 'data'), 'torque': ('surface/torque', 'data'),
+            'hook_load': ('surface/hook_load', 'data'),
+            'block_velocity': ('surface/block_velocity', 'data')}
+_TRUTH = {'bit_speed': ('bit/velocity', 'twist.angular.x'),
+          'torque_on_bit': ('bit/wrench', 'wrench.torque.x'),
+          'weight_on_bit': ('bit/wrench', 'wrench.force.x'),
+          'stuck': ('bit/stuck', 'data'),
+          'severity': ('bit/stick_slip_severity', 'data')}
+
+
+def _field(msg, path):
+    for part in path.split('.'):
+        msg = getattr(msg, part)
+    return float(msg)
+
+
+def recording_series(rec) -> dict:
+    """Surface (and, if recorded, bit) series of a recording on the instants at which both
+    the top-drive speed and the surface torque were recorded; ``time_s`` is log time."""
+    ns = rec.run.get('namespace', '/').rstrip('/')
+    wanted = {**_SURFACE, **_TRUTH}
+    topics = {f'{ns}/{topic}' for topic, _ in wanted.values()}
+    missing = [f'{ns}/{_SURFACE[k][0]}' for k in ('speed', 'torque')
+               if f'{ns}/{_SURFACE[k][0]}' not in rec.topics]
+    if missing:
+        raise ParameterError(f'{rec.path}: no {" or ".join(missing)} topic to estimate from')
+    by_time: dict[int, dict] = {}
+    for topic, t_ns, msg in rec.decoded(sorted(topics & set(rec.topics))):
+        short = topic[len(ns) + 1:] if ns else topic.lstrip('/')
+        row = by_time.setdefault(t_ns, {})
+        for key, (name, path) in wanted.items():
+            if name == short:
+                row[key] = _field(msg, path)
+    times = sorted(t for t, row in by_time.items() if 'speed' in row and 'torque' in row)
+    if len(times) < 10:
+        raise ParameterError(f'{rec.path}: fewer than 10 samples of surface speed and torque')
+    out = {'time_s': np.array(times) * 1e-9}
+    for key in wanted:
+        column = [by_time[t].get(key, math.nan) for t in times]
+        if not all(math.isnan(v) for v in column):
+            out[key] = np.array(column)
+    return out
+
+
+def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = None,
+                       noise: SensorNoise | None = None, tune_every_s: float = 120.0) -> dict:
+    """Run the estimator over the series of :func:`recording_series`; the rate is the
+    median sample spacing (samples are taken as one period apart)."""
+    dt = float(np.median(np.diff(series['time_s'])))
+    if not dt > 0:
+        raise ParameterError('the recording has no increasing sample times')
+    rate = 1.0 / dt
+    tuning = tuning or EstimatorTuning()
+    est = DownholeEstimator(scenario, min(max(rate, 1.0), 10000.0), noise or SensorNoise(),
+                            tuning)
+    nan = np.full(series['time_s'].size, math.nan)
+    samples = [SurfaceSample(*v) for v in zip(series['speed'], series['torque'],
+                                              series.get('hook_load', nan),
+                                              series.get('block_velocity', nan))]
+    est.start(samples[0])
+    out, fits = [], []
+    every = round(tune_every_s * rate) if tune_every_s else 0
+    first = round(tuning.tuning_window_s * rate)
+    for i, sample in enumerate(samples[1:], start=1):
+        out.append(est.update(sample))
+        if every and i >= first and (i - first) % every == 0:
+            fits.append((float(series['time_s'][i]), est.self_tune()))
+    keys = ('bit_speed_rad_s', 'bit_speed_std', 'stuck', 'torque_on_bit_Nm',
+            'weight_on_bit_N', 'stick_slip_severity', 'model_mismatch')
+    result = {key: np.array([getattr(e, key) for e in out]) for key in keys}
+    result['time_s'] = series['time_s'][1:]
+    result['rate_hz'] = rate
+    result['fits'] = fits
+    return result
+
+
+def _f1(truth: np.ndarray, est: np.ndarray, per: int) -> float:
+    n = min(truth.size, est.size) // per * per
+    t = truth[:n].reshape(-1, per).any(axis=1)
+    e = est[:n].reshape(-1, per).any(axis=1)
+    tp, fp, fn = int(np.sum(t & e)), int(np.sum(~t & e)), int(np.sum(t & ~e))
+    return 2 * tp / (2 * tp + fp + fn) if tp + fp + fn else math.nan
+
+
+def recording_errors(series: dict, est: dict, skip_s: float = 10.0) -> dict | None:
+    """Errors against the recorded bit topics (None if the recording has none): RMS bit
+    speed error / mean bit speed, stick F1 per 0.1 s window, largest severity error
+    (against the twin's own ``bit/stick_slip_severity``), RMS torque and weight on bit."""
+    if 'bit_speed' not in series:
+        return None
+    sel = est['time_s'] >= est['time_s'][0] + skip_s
+    if sel.sum() < 10:
+        raise ParameterError(f'the recording is shorter than {skip_s:g} s + 10 samples: '
+                             'too short to compare')
+    truth = {k: v[1:][sel] for k, v in series.items() if k != 'time_s'}
+    speed = truth['bit_speed']
+    out = {'samples': int(sel.sum()), 'rate_hz': est['rate_hz'],
+           'mean_bit_speed_rad_s': float(speed.mean()),
+           'bit_speed_rms_rel': float(np.sqrt(np.mean((est['bit_speed_rad_s'][sel] - speed)
+                                                      ** 2)) / abs(speed.mean()))}
+    if 'stuck' in truth:
+        per = max(1, round(0.1 * est['rate_hz']))
+        out['stick_f1'] = _f1(truth['stuck'] > 0.5, est['stuck'][sel], per)
+        out['stick_fraction'] = float(np.mean(truth['stuck'] > 0.5))
+    if 'severity' in truth:
+        out['severity_max_error'] = float(np.max(np.abs(est['stick_slip_severity'][sel]
+                                                        - truth['severity'])))
+    for key, unit in (('torque_on_bit', 'Nm'), ('weight_on_bit', 'N')):
+        name = f'{key}_{unit}'
+        if key in truth and np.isfinite(est[name][sel]).all():
+            out[f'{key}_rms_{unit}'] = float(np.sqrt(np.mean((est[name][sel] - truth[key])
+                                                             ** 2)))
+    return out
+
+
+def _speed_panel(ax, series, est, lo, hi):
+    t = est['time_s']
+    w = (t >= lo) & (t <= hi)
+    band = 2 * est['bit_speed_std'][w]
+    ax.fill_between(t[w], est['bit_speed_rad_s'][w] - band, est['bit_speed_rad_s'][w] + band,
+                    color='tab:orange', alpha=0.25, lw=0, label='estimate ±2σ')
+    if 'bit_speed' in series:
+        ws = (series['time_s'] >= lo) & (series['time_s'] <= hi)
+        ax.plot(series['time_s'][ws], series['bit_speed'][ws], 'k', lw=0.8,
+                label='twin (truth)')
+        if 'stuck' in series:
+            ax.fill_between(series['time_s'][ws], 0, 1, where=series['stuck'][ws] > 0.5,
+                            color='tab:red', alpha=0.2, lw=0,
+                            transform=ax.get_xaxis_transform(), label='stuck (truth)')
+    ax.plot(t[w], est['bit_speed_rad_s'][w], color='tab:orange', lw=0.8, label='estimate')
+    ax.fill_between(t[w], 0, 0.08, where=est['stuck'][w], color='tab:blue', alpha=0.6, lw=0,
+                    transform=ax.get_xaxis_transform(), label='stuck (estimate)')
+    ax.set_ylabel('bit speed [rad/s]')
+    ax.set_xlim(lo, hi)
+
+
+def plot_estimate(series: dict, est: dict, path, title: str = ''):
+    """Truth (if recorded) against estimate: bit speed with its ±2σ band over the whole
+    run and over its last 10 s, stick phases marked (truth: shaded; estimate: bar at the
+    bottom), torque on bit below."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    t = est['time_s']
+    fig, (ax1, ax0, ax2) = plt.subplots(3, 1, figsize=(10, 8.5))
+    _speed_panel(ax1, series, est, t[0], t[-1])
+    _speed_panel(ax0, series, est, max(t[0], t[-1] - 10.0), t[-1])
+    ax0.set_title('last 10 s', fontsize=9)
+    ax0.legend(loc='upper right', fontsize=8, ncol=3)
+    if 'torque_on_bit' in series:
+        ax2.plot(series['time_s'], series['torque_on_bit'] / 1e3, 'k', lw=0.8, label='twin')
+    ax2.plot(t, est['torque_on_bit_Nm'] / 1e3, color='tab:orange', lw=0.8, label='estimate')
+    ax2.set_ylabel('torque on bit [kN·m]')
+    ax2.set_xlabel('time [s]')
+    ax2.legend(loc='upper right', fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,183 @@
+"""Self-tuning of the torsional string from surface data, and the model-mismatch test
+(docs/estimation.md §5).
+
+A prediction-error fit: among strings that differ from the estimator's model by a BHA
+inertia scale ``a``, a stiffness scale ``b`` of the whole string and an added
+stiffness-proportional damping ``θ_add`` [s], find the one whose steady-state Kalman
+filter predicts the measured surface torque best from the measured top speed (least mean
+squared one-step innovation; the bit torque stays an unknown random walk, so the fit
+never needs the bit law).  The identified string's first torsional mode (clamped at the
+top drive, free at the bit: ``det(K − ω² M) = 0``, Rayleigh damping ratio
+``ζ = η/(2ω) + θω/2``) is what a driller reads as "the string's frequency and damping".
+
+The mismatch test compares models, not absolute χ² levels (the bit torque jumps at
+every stick-slip transition make the innovations heavy-tailed, so the χ² level of even
+the exact model is not 1): the model no longer fits when the best fit explains the
+surface torque clearly better (``improvement`` ≥ ``min_improvement``) *and* its first
+mode or BHA inertia is outside ``tolerance`` of the model's.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.linalg import eigh
+from scipy.optimize import minimize
+
+from .chain_observer import AxisModel, ChainObserver
+
+__all__ = ['FirstMode', 'TorsionalFit', 'first_mode', 'innovation_power', 'fit_torsional']
+
+
+@dataclass(frozen=True)
+class FirstMode:
+    """First torsional mode of a top-clamped string: frequency [Hz], damping ratio [-]."""
+
+    frequency_hz: float
+    damping_ratio: float
+
+
+@dataclass(frozen=True)
+class TorsionalFit:
+    """Result of :func:`fit_torsional`.
+
+    ``bha_inertia_scale``, ``stiffness_scale``, ``damping_add_s``: the identified string
+    relative to the model; ``model_mode`` / ``fitted_mode``: first modes; ``power_model``,
+    ``power_fit``: mean squared innovation of the surface torque [N²·m²] of the model and
+    of the fit; ``improvement = 1 − power_fit/power_model``; ``mismatch``: the test of
+    the module docstring; ``duration_s``: data used; ``evaluations``: filters run.
+    """
+
+    bha_inertia_scale: float
+    stiffness_scale: float
+    damping_add_s: float
+    model_mode: FirstMode
+    fitted_mode: FirstMode
+    power_model: float
+    power_fit: float
+    improvement: float
+    mismatch: bool
+    duration_s: float
+    evaluations: int
+
+    def axis(self, model: AxisModel) -> AxisModel:
+        """The identified string (``model`` re-scaled)."""
+        return model.scaled(bha_mass=self.bha_inertia_scale, stiffness=self.stiffness_scale,
+                            theta_add_s=self.damping_add_s)
+
+    def as_dict(self) -> dict:
+        out = {k: getattr(self, k) for k in ('bha_inertia_scale', 'stiffness_scale',
+                                             'damping_add_s', 'power_model', 'power_fit',
+                                             'improvement', 'mismatch', 'duration_s',
+                                             'evaluations')}
+        out['model_first_mode_hz'] = self.model_mode.frequency_hz
+        out['model_first_mode_damping'] = self.model_mode.damping_ratio
+        out['fitted_first_mode_hz'] = self.fitted_mode.frequency_hz
+        out['fitted_first_mode_damping'] = self.fitted_mode.damping_ratio
+        return out
+
+
+def first_mode(axis: AxisModel) -> FirstMode:
+    """Lowest mode of ``K φ = ω² M φ`` (the top clamped) and its Rayleigh damping ratio."""
+    M, _, K, _, _ = axis.matrices()
+    omega = math.sqrt(max(float(eigh(K, M, eigvals_only=True, subset_by_index=[0, 0])[0]),
+                          0.0))
+    zeta = axis.eta / (2.0 * omega) + axis.theta * omega / 2.0 if omega > 0 else math.inf
+    return FirstMode(omega / (2.0 * math.pi), zeta)
+
+
+def innovation_power(axis: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_hz: float,
+                     speed_std: float, torque_std: float, torque_rate: float,
+                     skip_s: float = 5.0) -> float:
+    """Mean squared one-step innovation [N²·m²] of the surface torque of ``axis``'s
+    steady-state filter over the samples (``speed`` [rad/s], ``torque`` [N·m] at
+    ``rate_hz``), after ``skip_s`` of start-up transient."""
+    obs = ChainObserver(axis, 1.0 / rate_hz, speed_std, torque_std, torque_rate)
+    obs.start(speed[0], torque[0])
+    return _mean_squared_innovation(obs.F, obs.G[:, 0].copy(), obs.G[:, 1].copy(), obs.H,
+                                    obs.gain, obs.D, obs.x.copy(), speed, torque,
+                                    int(skip_s * rate_hz))
+
+
+@numba.njit(cache=False, nogil=True)
+def _mean_squared_innovation(F, g_speed, g_const, H, gain, D, x, speed, torque, skip):
+    """The steady-state filter's recursion (``ChainObserver.update``) over the samples;
+    mean of the squared innovations from sample ``skip`` on."""
+    total, count = 0.0, 0
+    for i in range(1, speed.size):
+        x = F @ x + g_speed * speed[i - 1] + g_const
+        nu = torque[i] - (H @ x + D * speed[i])
+        x = x + gain * nu
+        if i >= skip:
+            total += nu * nu
+            count += 1
+    return total / max(count, 1)
+
+
+def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_hz: float,
+                  speed_std: float, torque_std: float, torque_rate: float,
+                  tolerance: float = 0.2, min_improvement: float = 0.05,
+                  max_evaluations: int = 80) -> TorsionalFit:
+    """Identify the torsional string from surface speed and torque samples.
+
+    Parameters
+    ----------
+    model : AxisModel
+        The estimator's torsional model (:func:`~.chain_observer.torsional_axis`).
+    speed, torque : ndarray
+        Measured top speed [rad/s] and surface torque [N·m], one sample every
+        ``1/rate_hz`` s (at least 20 s).
+    speed_std, torque_std, torque_rate
+        The filter's noise model (see :class:`~.chain_observer.ChainObserver`).
+    tolerance : float
+        Relative change of the first-mode frequency or BHA inertia that counts as a
+        mismatch.
+    min_improvement : float
+        Relative reduction of the innovation power that counts as a better fit.
+    """
+    speed = np.asarray(speed, float)
+    torque = np.asarray(torque, float)
+    if speed.shape != torque.shape or speed.size < 20 * rate_hz:
+        raise ValueError('the fit needs at least 20 s of paired speed and torque samples')
+    if not (np.all(np.isfinite(speed)) and np.all(np.isfinite(torque))):
+        raise ValueError('the fit needs finite samples')
+    theta_scale = max(model.theta, 1e-4)      # [s]: the fit's added damping per e-fold
+    evaluations = 0
+
+    def axis_of(p):
+        return model.scaled(bha_mass=math.exp(p[0]), stiffness=math.exp(p[1]),
+                            theta_add_s=max(theta_scale * (math.exp(p[2]) - 1.0),
+                                            -model.theta))
+
+    def cost(p):
+        nonlocal evaluations
+        evaluations += 1
+        if np.any(np.abs(p) > math.log(4.0)):
+            return math.inf
+        try:
+            power = innovation_power(axis_of(p), speed, torque, rate_hz, speed_std,
+                                     torque_std, torque_rate)
+        except (ArithmeticError, np.linalg.LinAlgError):
+            return math.inf
+        return math.log(power)
+
+    p0 = np.zeros(3)
+    base = cost(p0)
+    result = minimize(cost, p0, method='Nelder-Mead',
+                      options={'maxfev': max_evaluations, 'xatol': 0.01, 'fatol': 1e-4,
+                               'initial_simplex': p0 + np.vstack([np.zeros(3),
+                                                                  0.25 * np.eye(3)])})
+    p = result.x if result.fun < base else p0
+    fitted = axis_of(p)
+    power_model, power_fit = math.exp(base), math.exp(min(result.fun, base))
+    improvement = 1.0 - power_fit / power_model
+    mode0, mode1 = first_mode(model), first_mode(fitted)
+    off = max(abs(mode1.frequency_hz / mode0.frequency_hz - 1.0), abs(math.exp(p[0]) - 1.0))
+    return TorsionalFit(bha_inertia_scale=math.exp(p[0]), stiffness_scale=math.exp(p[1]),
+                        damping_add_s=fitted.theta - model.theta,
+                        model_mode=mode0, fitted_mode=mode1, power_model=power_model,
+                        power_fit=power_fit, improvement=improvement,
+                        mismatch=bool(improvement >= min_improvement and off > tolerance),
+                        duration_s=speed.size / rate_hz, evaluations=evaluations)

@@ -1,0 +1,199 @@
+"""``downhole_estimator``: what the bit does, from surface topics only (adapter over
+:class:`drill_twin.estimation.DownholeEstimator`, docs/estimation.md).
+
+Inputs (``std_msgs/Float64``, SI, sensor-data QoS; remap a rig's topics onto them):
+``surface/top_drive_speed`` [rad/s], ``surface/torque`` [N·m] and, for the weight on
+bit, ``surface/hook_load`` [N] and ``surface/block_velocity`` [m/s].  A timer at
+``rate_hz`` on the node clock (``/clock`` under ``use_sim_time``) samples the latest value
+of each (zero-order hold) and updates the filters.  Outputs: ``estimate/bit/velocity``
+(``TwistWithCovarianceStamped``: angular.x the bit speed with its variance at
+covariance[21], linear.x the bit's axial speed), ``estimate/bit/wrench`` (force.x weight
+on bit, torque.x torque on bit), ``estimate/bit/stuck``, ``estimate/stick_slip_severity``
+and ``/diagnostics`` (innovation statistics, the last self-tuning fit, the model-mismatch
+warning).
+
+Self-tuning (``self_tuning_period_s`` > 0) fits the string to the last
+``tuning_window_s`` of data in a worker thread (the filter loop is compiled ``nogil``),
+so the sampling timer keeps its rate; the result is taken on the executor's thread.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from std_msgs.msg import Float64
+
+from ..estimation.estimator import DownholeEstimator, EstimatorTuning, SensorNoise, SurfaceSample
+from ..physics.parameters import ParameterError
+from ..physics.scenario import load_scenario
+from ..runtime.arbitration import Watchdog
+from ..runtime.settings import ESTIMATOR_SETTINGS
+from ..topics import ESTIMATE_TOPICS, SURFACE_INPUTS, diagnostics_fields, stamp_fields
+from .common import declare_settings, run_node, warn_unknown_overrides
+from .entry import interruptible
+from .messages import message_class, qos_profile, to_message
+
+__all__ = ['EstimatorNode', 'main']
+
+
+class EstimatorNode(Node):
+    """The downhole estimator node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('downhole_estimator', **kwargs)
+        declare_settings(self, ESTIMATOR_SETTINGS)
+        warn_unknown_overrides(self)
+        g = self._param
+        overrides = [o for o in g('overrides') if o]
+        with interruptible():
+            scenario = load_scenario(g('config'), overrides)
+            if not scenario.is_si:
+                raise ParameterError('downhole_estimator needs an SI configuration (units: si)')
+            noise = SensorNoise(g('speed_noise_rad_s'), g('torque_noise_Nm'),
+                                g('hook_load_noise_N'), g('block_velocity_noise_m_s'))
+            tuning = dataclasses.replace(EstimatorTuning(), torque_rate_Nm=g('torque_rate_Nm'),
+                                         tuning_window_s=g('tuning_window_s'))
+            self.est = DownholeEstimator(scenario, g('rate_hz'), noise, tuning)
+        self.latest = dict.fromkeys(SURFACE_INPUTS)
+        self.watch = Watchdog(g('measurement_timeout_s'))
+        for name in SURFACE_INPUTS:
+            self.create_subscription(Float64, name, self._on_input(name),
+                                     qos_profile_sensor_data)
+        self.pubs = {t.name: (self.create_publisher(message_class(t.type), t.name,
+                                                    qos_profile(t.qos)), t)
+                     for t in ESTIMATE_TOPICS}
+        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.estimate = None
+        self.samples = 0
+        self.fits = 0
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix='self_tuning')
+        self._fit_future = None
+        self._next_fit_s = None
+        self.create_timer(1.0 / g('rate_hz'), self._sample)
+        self.create_timer(1.0, self._diagnostics)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.get_logger().info(
+            f'estimating at {g("rate_hz"):g} Hz from {", ".join(SURFACE_INPUTS)}; '
+            f'first torsional mode of the model {self._mode_hz():.4f} Hz')
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    def _mode_hz(self) -> float:
+        from ..estimation.tuning import first_mode
+        return first_mode(self.est.active_model).frequency_hz
+
+    def _on_input(self, name):
+        def callback(msg):
+            if math.isfinite(msg.data):        # non-finite samples are dropped
+                self.latest[name] = msg.data
+                if name == 'surface/torque':
+                    self.watch.feed(time.monotonic())
+        return callback
+
+    # --- parameters: validate on set, apply after ----------------------------------------
+    def _validate_parameters(self, params):
+        return SetParametersResult(successful=True)   # ranges are in the descriptors
+
+    def _apply_parameters(self, params):
+        for prm in params:
+            if prm.name == 'measurement_timeout_s':
+                self.watch.timeout_s = float(prm.value)
+
+    # --- sampling ---------------------------------------------------------------------------
+    def _sample(self):
+        speed, torque = self.latest['surface/top_drive_speed'], self.latest['surface/torque']
+        if speed is None or torque is None or self.watch.expired(time.monotonic()) \
+                or self.watch.silent:
+            return                      # nothing to estimate from (diagnostics say so)
+        sample = SurfaceSample(speed, torque,
+                               _nan(self.latest['surface/hook_load']),
+                               _nan(self.latest['surface/block_velocity']))
+        self.estimate = self.est.update(sample)
+        self.samples += 1
+        stamp = self.get_clock().now().to_msg()
+        fields = dataclasses.asdict(self.estimate)
+        st = stamp_fields(ns=stamp.sec * 1_000_000_000 + stamp.nanosec)
+        for pub, topic in self.pubs.values():
+            pub.publish(to_message(message_class(topic.type), topic.fields(fields, st)))
+        self._self_tune()
+
+    def _self_tune(self):
+        period = self._param('self_tuning_period_s')
+        if self._fit_future is not None and self._fit_future.done():
+            try:
+                fit = self._fit_future.result()
+            except (ValueError, ArithmeticError) as exc:
+                self.get_logger().warning(f'self-tuning failed: {exc}')
+            else:
+                self.est.apply_fit(fit, retune=self._param('self_tuning_apply'))
+                self.fits += 1
+                self.get_logger().info(
+                    f'self-tuning: first mode {fit.fitted_mode.frequency_hz:.4f} Hz '
+                    f'(model {fit.model_mode.frequency_hz:.4f}), damping '
+                    f'{fit.fitted_mode.damping_ratio:.2e}, BHA inertia x'
+                    f'{fit.bha_inertia_scale:.3f}, stiffness x{fit.stiffness_scale:.3f}, '
+                    f'innovation power -{100 * fit.improvement:.0f} %'
+                    + ('; MODEL MISMATCH' if fit.mismatch else ''))
+            self._fit_future = None
+        if period <= 0 or self._fit_future is not None:
+            return
+        full = self.samples >= self.est.tuning.tuning_window_s * self.est.rate_hz
+        now = self.est.time_s
+        if full and (self._next_fit_s is None or now >= self._next_fit_s):
+            self._next_fit_s = now + period
+            speed, torque = self.est.tuning_data()
+            self._fit_future = self._pool.submit(self.est.fit, speed, torque)
+
+    def _diagnostics(self):
+        e = self.estimate
+        values = {'samples': self.samples, 'self_tuning_fits': self.fits}
+        if e is not None:
+            values.update(nis_torsional=f'{e.nis_torsional:.3g}',
+                          nis_axial=f'{e.nis_axial:.3g}',
+                          bit_speed_std_rad_s=f'{e.bit_speed_std:.3g}',
+                          torque_on_bit_std_Nm=f'{e.torque_on_bit_std:.3g}',
+                          weight_on_bit_std_N=f'{e.weight_on_bit_std:.3g}')
+        fit = self.est.last_fit
+        if fit is not None:
+            values.update(model_first_mode_hz=f'{fit.model_mode.frequency_hz:.5g}',
+                          fitted_first_mode_hz=f'{fit.fitted_mode.frequency_hz:.5g}',
+                          fitted_first_mode_damping=f'{fit.fitted_mode.damping_ratio:.3g}',
+                          fitted_bha_inertia_scale=f'{fit.bha_inertia_scale:.4g}',
+                          fitted_stiffness_scale=f'{fit.stiffness_scale:.4g}',
+                          innovation_power_reduction=f'{fit.improvement:.3g}')
+        if self.watch.silent:
+            level, message = 1, ('surface torque stopped: estimates held' if
+                                 self.watch.last_s is not None else
+                                 'waiting for surface/top_drive_speed and surface/torque')
+        elif self.est.model_mismatch:
+            level, message = 1, ('model mismatch: the string model does not fit the surface '
+                                 'data (see fitted_* values)')
+        else:
+            level, message = 0, 'estimating'
+        stamp = stamp_fields(ns=self.get_clock().now().nanoseconds)
+        self.diag_pub.publish(to_message(DiagnosticArray, diagnostics_fields(
+            stamp, level, message, values, name='drill_twin: downhole_estimator')))
+
+    def destroy_node(self):
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        return super().destroy_node()
+
+
+def _nan(value):
+    return math.nan if value is None else value
+
+
+def main(args=None):
+    return run_node(EstimatorNode, 'downhole_estimator', args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,57 @@
+"""``downhole_estimator`` over DDS beside ``twin_node``: fed only the twin's surface
+topics, its estimate of the bit follows the twin's own bit topics."""
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from geometry_msgs.msg import TwistStamped, TwistWithCovarianceStamped, WrenchStamped  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from drill_twin.ros.estimator_node import EstimatorNode  # noqa: E402
+from drill_twin.ros.twin_node import TwinNode  # noqa: E402
+from drill_twin.topics import SURFACE_INPUTS  # noqa: E402
+
+
+def _stamped(extract):
+    return lambda m: (time.monotonic(), extract(m))
+
+
+def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
+    twin = rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
+        Parameter('real_time_factor', value=1.0), Parameter('stability_period_s', value=0.0)]))
+    est = rig.add(EstimatorNode(context=rig.ctx, parameter_overrides=[
+        Parameter('self_tuning_period_s', value=0.0)]))
+    # what the estimator listens to: the surface topics and nothing else
+    subscribed = {name.lstrip('/') for name, _ in
+                  est.get_subscriber_names_and_types_by_node('downhole_estimator', '/')}
+    assert subscribed - {'parameter_events'} == set(SURFACE_INPUTS)
+    rig.listen('bit/velocity', TwistStamped, _stamped(lambda m: m.twist.angular.x))
+    rig.listen('bit/wrench', WrenchStamped,
+               _stamped(lambda m: (m.wrench.torque.x, m.wrench.force.x)))
+    rig.listen('estimate/bit/velocity', TwistWithCovarianceStamped,
+               _stamped(lambda m: (m.twist.twist.angular.x, m.twist.covariance[21])))
+    rig.listen('estimate/bit/wrench', WrenchStamped,
+               _stamped(lambda m: (m.wrench.torque.x, m.wrench.force.x)))
+    rig.listen('/diagnostics', DiagnosticArray, lambda m: [
+        (s.name, s.level, {kv.key: kv.value for kv in s.values}) for s in m.status])
+    assert rig.spin_until(lambda: len(rig.data['estimate/bit/velocity']) > 1000, 60)
+    assert twin.twin.time_s > 8.0
+    truth = np.array([(t, v) for t, v in rig.data['bit/velocity']])
+    estimate = np.array([(t, v, var) for t, (v, var) in rig.data['estimate/bit/velocity']])
+    late = estimate[estimate[:, 0] > estimate[0, 0] + 3.0]     # after the filter settled
+    nearest = np.interp(late[:, 0], truth[:, 0], truth[:, 1])
+    mean_speed = truth[:, 1].mean()
+    assert mean_speed == pytest.approx(12.57, rel=0.05)
+    # truth and estimate are matched by arrival time (up to a tick apart): 10 % of the mean
+    assert np.sqrt(np.mean((late[:, 1] - nearest) ** 2)) < 0.1 * mean_speed
+    assert np.all(late[:, 2] > 0)                              # a variance is published
+    true_wrench = np.array([w for _, w in rig.data['bit/wrench']])
+    est_wrench = np.array([w for _, w in rig.data['estimate/bit/wrench']][-300:])
+    assert est_wrench[:, 0].mean() == pytest.approx(true_wrench[:, 0].mean(), rel=0.1)
+    assert est_wrench[:, 1].mean() == pytest.approx(true_wrench[:, 1].mean(), rel=0.1)
+    mine = [s for arr in rig.data['/diagnostics'] for s in arr
+            if s[0] == 'drill_twin: downhole_estimator']
+    assert mine and 'nis_torsional' in mine[-1][2]
