@@ -15,7 +15,7 @@ from drill_twin.io.mcap_reader import RecordingError, open_recording, recover
 from drill_twin.io.msg_definitions import find_msg_file, schema_text
 from drill_twin.io.resimulation import resimulate
 from drill_twin.io.run_recorder import TwinRecorder, record_run
-from drill_twin.physics.digital_twin import DigitalTwin
+from drill_twin.physics.digital_twin import DigitalTwin, aligned_step
 from drill_twin.physics.scenario import load_scenario
 from drill_twin.topics import BY_NAME, MEASUREMENTS
 
@@ -49,7 +49,9 @@ def test_recording_opens_in_the_mcap_and_rosbags_readers(run_file):
     twin run here at the same ticks (the test's own loop)."""
     from rosbags.highlevel import AnyReader
     ticks = int(5.0 * RATE_HZ)
-    twin = DigitalTwin(load_scenario('benchmark_fem'))
+    sc = load_scenario('benchmark_fem')   # the step divides the tick, as in the node
+    twin = DigitalTwin(sc, time_step_s=aligned_step(sc.time_step * sc.time_unit_s,
+                                                    1.0 / RATE_HZ))
     expected = []
     for k in range(1, ticks + 1):
         twin.advance_to(k / RATE_HZ)

@@ -251,6 +251,9 @@ def open_recording(path) -> Recording:
         raise RecordingError(f'{path}: corrupt MCAP index ({exc}); run `drill-twin mcap '
                              f'recover {path} FIXED.mcap` to rebuild the indexes') from None
     except _READ_ERRORS as exc:
+        if 'CRCValidationError' in type(exc).__name__:   # damaged bytes, not a cut-off file
+            raise RecordingError(f'{path}: corrupt MCAP data ({_why(exc)}); try `drill-twin '
+                                 f'mcap recover {path} FIXED.mcap`') from None
         raise RecordingError(f'{path}: unreadable MCAP ({_why(exc)}); if it was being written '
                              f'when its recorder died, run `drill-twin mcap recover {path} '
                              'FIXED.mcap`') from None
