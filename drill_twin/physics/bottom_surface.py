@@ -41,6 +41,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .hermite import hermite, hermite_slope
+
 __all__ = ['new_surface', 'fill_steady', 'fill_flat', 'write_step', 'read_surface',
            'S_CUR', 'S_PREV', 'S_ANGLE', 'S_TIME', 'S_PREV_TIME', 'S_RES', 'nodes_for']
 
@@ -109,22 +111,6 @@ def fill_flat(surf, depth: float, time: float = 0.0):
     surf[S_RES] = 0.0
 
 
-@njit(cache=True, nogil=True, inline='always')
-def _hermite(y0, y1, d0, d1, h, s):
-    s2 = s * s
-    s3 = s2 * s
-    return ((2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * h * d0
-            + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * d1)
-
-
-@njit(cache=True, nogil=True, inline='always')
-def _hermite_slope(y0, y1, d0, d1, h, s):
-    """d/ds of :func:`_hermite` (s in [0, 1])."""
-    s2 = s * s
-    return ((6 * s2 - 6 * s) * y0 + (3 * s2 - 4 * s + 1) * h * d0
-            + (-6 * s2 + 6 * s) * y1 + (3 * s2 - 2 * s) * h * d1)
-
-
 @njit(cache=True, nogil=True)
 def _crossing(p0, p1, dp0, dp1, h, target):
     """Fraction s in [0, 1] of the step where the Hermite angle equals ``target``
@@ -135,14 +121,14 @@ def _crossing(p0, p1, dp0, dp1, h, target):
     s = min(max(s, 0.0), 1.0)
     f = 0.0
     for _ in range(60):
-        f = _hermite(p0, p1, dp0, dp1, h, s) - target
+        f = hermite(p0, p1, dp0, dp1, h, s) - target
         if f > 0.0:
             b = s
         else:
             a = s
         if abs(f) <= 1e-14 * (1.0 + abs(target)) or b - a < 1e-15:
             break
-        fp = _hermite_slope(p0, p1, dp0, dp1, h, s)
+        fp = hermite_slope(p0, p1, dp0, dp1, h, s)
         s_new = s - f / fp if fp > 0.0 else 0.5 * (a + b)
         if not (a < s_new < b):
             s_new = 0.5 * (a + b)
@@ -168,7 +154,7 @@ def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
         for jj in range(first, last + 1):
             target = jj * spacing - th            # bit angle when this blade is on the node
             s, res = _crossing(p0, p1, dp0, dp1, h, target)
-            u = _hermite(u0, u1, du0, du1, h, s)
+            u = hermite(u0, u1, du0, du1, h, s)
             j = jj % n
             surf[S_PREV, j] = surf[S_CUR, j]
             surf[S_PREV_TIME, j] = surf[S_TIME, j]

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .hermite import hermite
+
 __all__ = ['new_time_history', 'push_velocities', 'velocities_at_time']
 
 H_T, H_DU, H_DPHI, H_DDU, H_DDPHI = 0, 1, 2, 3, 4
@@ -52,14 +54,6 @@ def push_velocities(hist, meta, t, du, dphi, ddu, ddphi):
     hist[H_DDPHI, idx] = ddphi
 
 
-@njit(cache=True, nogil=True, inline='always')
-def _hermite(y0, y1, d0, d1, h, s):
-    s2 = s * s
-    s3 = s2 * s
-    return ((2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * h * d0
-            + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * d1)
-
-
 @njit(cache=True, nogil=True)
 def velocities_at_time(hist, meta, t, out):
     """Bit velocities (U', Φ') at time ``t`` (cubic Hermite in time).  Times before the
@@ -94,6 +88,6 @@ def velocities_at_time(hist, meta, t, out):
     i1 = (start + hi) % cap
     h = hist[H_T, i1] - hist[H_T, i0]
     s = (t - hist[H_T, i0]) / h
-    out[0] = _hermite(hist[H_DU, i0], hist[H_DU, i1], hist[H_DDU, i0], hist[H_DDU, i1], h, s)
-    out[1] = _hermite(hist[H_DPHI, i0], hist[H_DPHI, i1], hist[H_DDPHI, i0],
+    out[0] = hermite(hist[H_DU, i0], hist[H_DU, i1], hist[H_DDU, i0], hist[H_DDU, i1], h, s)
+    out[1] = hermite(hist[H_DPHI, i0], hist[H_DPHI, i1], hist[H_DDPHI, i0],
                       hist[H_DDPHI, i1], h, s)
