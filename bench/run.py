@@ -389,6 +389,24 @@ def _bench_domain():
     return domain_id(selector=lambda: next(counter) % 100 + 1)
 
 
+_PROBE_KEYS = ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')
+
+
+def _enter_domain(env) -> dict:
+    """Put this process (the bench's probe) on the nodes' domain; returns what to restore."""
+    saved = {k: os.environ.get(k) for k in _PROBE_KEYS}
+    os.environ.update({k: env[k] for k in _PROBE_KEYS})
+    return saved
+
+
+def _restore_environ(saved: dict):
+    for k, v in saved.items():
+        if v is None:
+            os.environ.pop(k, None)
+        else:
+            os.environ[k] = v
+
+
 def _node_process(executable, env, *params):
     args = [str(Path(sys.executable).parent / executable), '--ros-args']
     for prm in params:
@@ -429,8 +447,7 @@ def bench_realtime_under_load(smoke):
         hog = subprocess.Popen([sys.executable, '-c', 'while True: pass'])
         twin = _node_process('twin_node', env)
         ctrl = _node_process('soft_torque_node', env)
-        saved = {k: os.environ.get(k) for k in env if k.startswith('ROS_')}
-        os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+        saved = _enter_domain(env)
         ctx = rclpy.Context()
         rclpy.init(context=ctx)
         probe = rclpy.create_node('bench_probe', context=ctx)
@@ -468,11 +485,7 @@ def bench_realtime_under_load(smoke):
         ex.shutdown()
         probe.destroy_node()
         rclpy.shutdown(context=ctx)
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+        _restore_environ(saved)
     gaps = np.diff(np.sort(stamps)) * 1e3
     twin_diag = diag.get('drill_twin: model', {})
     ctrl_diag = diag.get('drill_twin: soft_torque', {})
@@ -516,8 +529,7 @@ def bench_recording_soak(smoke):
         twin = _node_process('twin_node', env, 'as_fast_as_possible:=true',
                              'publish_rate_hz:=20.0', 'stability_period_s:=0.0',
                              f'record_path:={path}')
-        saved = {k: os.environ.get(k) for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')}
-        os.environ.update({k: env[k] for k in saved})
+        saved = _enter_domain(env)
         ctx = rclpy.Context()
         rclpy.init(context=ctx)
         probe = rclpy.create_node('bench_probe', context=ctx)
@@ -539,11 +551,7 @@ def bench_recording_soak(smoke):
         ex.shutdown()
         probe.destroy_node()
         rclpy.shutdown(context=ctx)
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+        _restore_environ(saved)
         size = path.stat().st_size / 1e6
     row('memory', f'twin_node recording {hours * 60:.0f} simulated min: RSS at 1/6 -> end',
         f'{first:.1f} -> {last:.1f}', 'MB', '< +5 MB', None if smoke else last - first < 5.0,
