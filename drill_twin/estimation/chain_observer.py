@@ -320,6 +320,14 @@ class ChainObserver:
         self.x = x
         self._u = float(u)
 
+    def continue_from(self, other: ChainObserver) -> ChainObserver:
+        """Take over the state and held input of a filter of the same chain (re-tuned
+        parameters, same elements); returns self."""
+        if other.nx != self.nx:
+            raise ValueError('the filters model different chains')
+        self.x, self._u = other.x.copy(), other._u
+        return self
+
     def predict(self):
         """Advance one period with the input held (no measurement)."""
         self.x = self.F @ self.x + self.G[:, 0] * self._u + self.G[:, 1]

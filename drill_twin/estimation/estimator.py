@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from .chain_observer import AxisModel, ChainObserver, axial_axis, torsional_axis
 from .tuning import TorsionalFit, fit_torsional
 
 __all__ = ['SensorNoise', 'SurfaceSample', 'Estimate', 'EstimatorTuning',
-           'DownholeEstimator']
+           'DownholeEstimator', 'estimate_series']
 
 
 @dataclass(frozen=True)
@@ -195,6 +195,7 @@ class DownholeEstimator:
         keep = max(1, round(tuning.tuning_window_s * rate_hz))
         self._history = (deque(maxlen=keep), deque(maxlen=keep))
         self.last_fit: TorsionalFit | None = None
+        self.fits: list[tuple[float, TorsionalFit]] = []   # (time_s, fit) of self_tune
         self.model_mismatch = False
         self.axial = None
         if scenario.raw['model'].get('axial_top', 'hook_load') != 'velocity':
@@ -258,9 +259,20 @@ class DownholeEstimator:
                         nis_torsional=float(nis_t), nis_axial=float(nis_a),
                         model_mismatch=self.model_mismatch)
 
-    def run(self, samples) -> list[Estimate]:
-        """Every sample of an iterable, in order."""
-        return [self.update(s) for s in samples]
+    def run(self, samples, tune_every_s: float | None = None,
+            retune: bool = True) -> list[Estimate]:
+        """Every sample of an iterable, in order; with ``tune_every_s`` [s], self-tune
+        that often once the tuning window is full (the fits go to :attr:`fits`)."""
+        if not tune_every_s:
+            return [self.update(s) for s in samples]
+        every = max(1, round(tune_every_s * self.rate_hz))
+        first = round(self.tuning.tuning_window_s * self.rate_hz)
+        out = []
+        for i, sample in enumerate(samples, start=1):
+            out.append(self.update(sample))
+            if i >= first and (i - first) % every == 0:
+                self.self_tune(retune)
+        return out
 
     # --- self-tuning --------------------------------------------------------------------
     def tuning_data(self) -> tuple[np.ndarray, np.ndarray]:
@@ -294,16 +306,14 @@ class DownholeEstimator:
             return
         self.model_mismatch = fit.mismatch and previous.mismatch
         if retune and fit.improvement >= self.tuning.retune_improvement:
-            state = self.torsion.x.copy()
-            u = self.torsion._u
             self.active_model = fit.axis(self.torsional_model)
-            self.torsion = self._torsion_filter(self.active_model)
-            self.torsion.x, self.torsion._u = state, u
+            self.torsion = self._torsion_filter(self.active_model).continue_from(self.torsion)
 
     def self_tune(self, retune: bool = True) -> TorsionalFit:
         """:meth:`fit` on the kept samples, then :meth:`apply_fit`."""
         fit = self.fit()
         self.apply_fit(fit, retune)
+        self.fits.append((self.time_s, fit))
         return fit
 
 
@@ -312,3 +322,9 @@ def _same_string(a: TorsionalFit, b: TorsionalFit, tolerance: float) -> bool:
     ``tolerance`` (relative)."""
     return (abs(a.bha_inertia_scale / b.bha_inertia_scale - 1.0) <= tolerance and
             abs(a.fitted_mode.frequency_hz / b.fitted_mode.frequency_hz - 1.0) <= tolerance)
+
+
+def estimate_series(estimates) -> dict:
+    """The fields of a sequence of :class:`Estimate` as arrays, one per field."""
+    return {f.name: np.array([getattr(e, f.name) for e in estimates])
+            for f in fields(Estimate)}

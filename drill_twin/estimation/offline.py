@@ -12,7 +12,14 @@ import math
 import numpy as np
 
 from ..physics.parameters import ParameterError
-from .estimator import DownholeEstimator, EstimatorTuning, SensorNoise, SurfaceSample
+from .estimator import (
+    DownholeEstimator,
+    EstimatorTuning,
+    SensorNoise,
+    SurfaceSample,
+    estimate_series,
+)
+from .study import f1_score, stick_windows
 
 __all__ = ['recording_series', 'estimate_recording', 'recording_errors', 'plot_estimate']
 
@@ -76,28 +83,11 @@ def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = 
                                               series.get('hook_load', nan),
                                               series.get('block_velocity', nan))]
     est.start(samples[0])
-    out, fits = [], []
-    every = round(tune_every_s * rate) if tune_every_s else 0
-    first = round(tuning.tuning_window_s * rate)
-    for i, sample in enumerate(samples[1:], start=1):
-        out.append(est.update(sample))
-        if every and i >= first and (i - first) % every == 0:
-            fits.append((float(series['time_s'][i]), est.self_tune()))
-    keys = ('bit_speed_rad_s', 'bit_speed_std', 'stuck', 'torque_on_bit_Nm',
-            'weight_on_bit_N', 'stick_slip_severity', 'model_mismatch')
-    result = {key: np.array([getattr(e, key) for e in out]) for key in keys}
+    result = estimate_series(est.run(samples[1:], tune_every_s))
     result['time_s'] = series['time_s'][1:]
     result['rate_hz'] = rate
-    result['fits'] = fits
+    result['fits'] = [(series['time_s'][0] + t, fit) for t, fit in est.fits]
     return result
-
-
-def _f1(truth: np.ndarray, est: np.ndarray, per: int) -> float:
-    n = min(truth.size, est.size) // per * per
-    t = truth[:n].reshape(-1, per).any(axis=1)
-    e = est[:n].reshape(-1, per).any(axis=1)
-    tp, fp, fn = int(np.sum(t & e)), int(np.sum(~t & e)), int(np.sum(t & ~e))
-    return 2 * tp / (2 * tp + fp + fn) if tp + fp + fn else math.nan
 
 
 def recording_errors(series: dict, est: dict, skip_s: float = 10.0) -> dict | None:
@@ -118,7 +108,8 @@ def recording_errors(series: dict, est: dict, skip_s: float = 10.0) -> dict | No
                                                       ** 2)) / abs(speed.mean()))}
     if 'stuck' in truth:
         per = max(1, round(0.1 * est['rate_hz']))
-        out['stick_f1'] = _f1(truth['stuck'] > 0.5, est['stuck'][sel], per)
+        out['stick_f1'] = f1_score(stick_windows(truth['stuck'] > 0.5, per),
+                                   stick_windows(est['stuck'][sel], per))[0]
         out['stick_fraction'] = float(np.mean(truth['stuck'] > 0.5))
     if 'severity' in truth:
         out['severity_max_error'] = float(np.max(np.abs(est['stick_slip_severity'][sel]

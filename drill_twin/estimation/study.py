@@ -24,9 +24,16 @@ import numpy as np
 from ..physics.digital_twin import aligned_step
 from ..physics.scenario import load_scenario
 from ..physics.simulation import Simulation
-from .estimator import DownholeEstimator, EstimatorTuning, SensorNoise, SurfaceSample
+from .estimator import (
+    DownholeEstimator,
+    EstimatorTuning,
+    SensorNoise,
+    SurfaceSample,
+    estimate_series,
+)
 
-__all__ = ['TRUTH_RATE_HZ', 'Truth', 'truth_run', 'sensor_samples', 'estimate_run', 'errors']
+__all__ = ['TRUTH_RATE_HZ', 'Truth', 'truth_run', 'sensor_samples', 'estimate_run', 'errors',
+           'stick_windows', 'f1_score']
 
 DEFAULT_NOISE = SensorNoise()
 DEFAULT_TUNING = EstimatorTuning()
@@ -106,29 +113,27 @@ def estimate_run(truth: Truth, rate_hz: float, noise: SensorNoise | None = DEFAU
     est = DownholeEstimator(scenario if scenario is not None else truth.scenario, rate_hz,
                             noise or DEFAULT_NOISE, tuning, **axes)
     est.start(samples[0])
-    fits = []
-    if tune_every_s:
-        every = round(tune_every_s * rate_hz)
-        first = round(tuning.tuning_window_s * rate_hz)
-        out = []
-        for i, sample in enumerate(samples[1:], start=1):
-            out.append(est.update(sample))
-            if i >= first and (i - first) % every == 0:
-                fits.append((i / rate_hz, est.self_tune(retune)))
-    else:
-        out = est.run(samples[1:])
-    keys = ('bit_speed_rad_s', 'bit_speed_std', 'stuck', 'torque_on_bit_Nm',
-            'weight_on_bit_N', 'stick_slip_severity', 'nis_torsional', 'model_mismatch')
-    series = {key: np.array([getattr(e, key) for e in out]) for key in keys}
+    series = estimate_series(est.run(samples[1:], tune_every_s, retune))
     series['time_s'] = truth.time_s[::_every(rate_hz)][1:]
     series['rate_hz'] = rate_hz
-    series['fits'] = fits
+    series['fits'] = est.fits
     return series
 
 
-def _windows(flags: np.ndarray, size: int) -> np.ndarray:
+def stick_windows(flags: np.ndarray, size: int) -> np.ndarray:
+    """Consecutive windows of ``size`` samples: True where any sample is True (a
+    trailing partial window is dropped)."""
     n = flags.size // size * size
     return flags[:n].reshape(-1, size).any(axis=1)
+
+
+def f1_score(true_windows: np.ndarray, est_windows: np.ndarray) -> tuple[float, int]:
+    """F1 of the estimated stick windows against the true ones (over their common
+    length; NaN when neither has a stick window) and the number of false ones."""
+    n = min(true_windows.size, est_windows.size)
+    t, e = true_windows[:n], est_windows[:n]
+    tp, fp, fn = int(np.sum(t & e)), int(np.sum(~t & e)), int(np.sum(t & ~e))
+    return (2 * tp / (2 * tp + fp + fn) if tp + fp + fn else math.nan), fp
 
 
 def _severity(speeds: np.ndarray, window: int) -> np.ndarray:
@@ -160,15 +165,10 @@ def errors(truth: Truth, est: dict, start_s: float, end_s: float) -> dict:
     per = max(1, round(0.1 * est['rate_hz']))
     first = idx[0] - (idx[0] % per) + per        # whole windows aligned on the grid
     last = idx[-1] - (idx[-1] % per)
-    true_w = _windows(truth.stuck[first * k:last * k], per * k)
-    est_w = _windows(est['stuck'][first - 1:last - 1], per)
-    n = min(true_w.size, est_w.size)
-    tp = int(np.sum(true_w[:n] & est_w[:n]))
-    fp = int(np.sum(~true_w[:n] & est_w[:n]))
-    fn = int(np.sum(true_w[:n] & ~est_w[:n]))
-    out['stick_windows'] = int(true_w[:n].sum())
-    out['false_stick_windows'] = fp
-    out['stick_f1'] = 2 * tp / (2 * tp + fp + fn) if tp + fp + fn else math.nan
+    true_w = stick_windows(truth.stuck[first * k:last * k], per * k)
+    est_w = stick_windows(est['stuck'][first - 1:last - 1], per)
+    out['stick_f1'], out['false_stick_windows'] = f1_score(true_w, est_w)
+    out['stick_windows'] = int(true_w[:est_w.size].sum())
     # severity over 10 s at the estimator's rate, compared every second
     window = round(10.0 * est['rate_hz'])
     every = max(1, round(est['rate_hz']))

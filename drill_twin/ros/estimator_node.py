@@ -24,7 +24,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 from diagnostic_msgs.msg import DiagnosticArray
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
@@ -65,9 +64,9 @@ class EstimatorNode(Node):
         for name in SURFACE_INPUTS:
             self.create_subscription(Float64, name, self._on_input(name),
                                      qos_profile_sensor_data)
-        self.pubs = {t.name: (self.create_publisher(message_class(t.type), t.name,
-                                                    qos_profile(t.qos)), t)
-                     for t in ESTIMATE_TOPICS}
+        # (publisher, message class, topic) per estimate topic, built once
+        self.pubs = [(self.create_publisher(message_class(t.type), t.name, qos_profile(t.qos)),
+                      message_class(t.type), t) for t in ESTIMATE_TOPICS]
         self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.estimate = None
         self.samples = 0
@@ -77,8 +76,7 @@ class EstimatorNode(Node):
         self._next_fit_s = None
         self.create_timer(1.0 / g('rate_hz'), self._sample)
         self.create_timer(1.0, self._diagnostics)
-        self.add_on_set_parameters_callback(self._validate_parameters)
-        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)   # ranges: descriptors
         self.get_logger().info(
             f'estimating at {g("rate_hz"):g} Hz from {", ".join(SURFACE_INPUTS)}; '
             f'first torsional mode of the model {self._mode_hz():.4f} Hz')
@@ -98,10 +96,7 @@ class EstimatorNode(Node):
                     self.watch.feed(time.monotonic())
         return callback
 
-    # --- parameters: validate on set, apply after ----------------------------------------
-    def _validate_parameters(self, params):
-        return SetParametersResult(successful=True)   # ranges are in the descriptors
-
+    # --- parameters: the descriptors validate, applied after ------------------------------
     def _apply_parameters(self, params):
         for prm in params:
             if prm.name == 'measurement_timeout_s':
@@ -121,8 +116,8 @@ class EstimatorNode(Node):
         stamp = self.get_clock().now().to_msg()
         fields = dataclasses.asdict(self.estimate)
         st = stamp_fields(ns=stamp.sec * 1_000_000_000 + stamp.nanosec)
-        for pub, topic in self.pubs.values():
-            pub.publish(to_message(message_class(topic.type), topic.fields(fields, st)))
+        for pub, cls, topic in self.pubs:
+            pub.publish(to_message(cls, topic.fields(fields, st)))
         self._self_tune()
 
     def _self_tune(self):
