@@ -40,6 +40,7 @@ setup(
             'drill-twin = drill_twin.cli:main',
             'twin_node = drill_twin.ros.entry:twin_node',
             'soft_torque_node = drill_twin.ros.entry:soft_torque_node',
+            'top_drive_controller = drill_twin.ros.entry:top_drive_controller',
             'mcap_recorder = drill_twin.ros.entry:mcap_recorder',
             'downhole_estimator = drill_twin.ros.entry:downhole_estimator',
         ],

@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .console import print_summary
+from .console import Progress, print_summary
+from .control.cli import add_parsers as add_control_parsers
 from .estimation.cli import add_parsers as add_estimation_parsers
 from .io.mcap_reader import RecordingError
 from .operations.cli import add_parsers as add_operations_parsers
@@ -36,27 +37,6 @@ from .physics.scenario import Scenario, load_scenario
 from .physics.simulation import Simulation, SimulationDiverged
 from .physics.statistics import SERIES_UNITS, output_series, stick_slip_summary
 from .recording_cli import add_parsers as add_recording_parsers
-
-
-class _Progress:
-    """A minimal progress bar on stderr (only when it is a terminal, or forced)."""
-
-    def __init__(self, label: str, enabled: bool):
-        self.label = label
-        self.enabled = enabled
-        self.last = -1
-
-    def __call__(self, fraction: float):
-        if not self.enabled:
-            return
-        pct = int(100 * fraction)
-        if pct != self.last:
-            self.last = pct
-            bar = '#' * (pct // 4)
-            sys.stderr.write(f'\r{self.label} [{bar:<25}] {pct:3d}%')
-            if pct >= 100:
-                sys.stderr.write('\n')
-            sys.stderr.flush()
 
 
 def run_scenario(scenario: Scenario, duration=None, progress=None):
@@ -114,7 +94,7 @@ def cmd_simulate(args) -> int:
                              f'{"s" if scenario.is_si else "t*"})')
     if not (math.isfinite(args.rate_hz) and 0 < args.rate_hz <= 10000):
         raise ParameterError(f'--rate-hz {args.rate_hz:g}: must be in (0, 10000] Hz')
-    progress = _Progress('simulating', sys.stderr.isatty() and not args.summary_json)
+    progress = Progress('simulating', sys.stderr.isatty() and not args.summary_json)
     if args.out and args.out.endswith('.mcap'):
         return _simulate_to_mcap(args, scenario, duration, progress)
     series, wall, sim = run_scenario(scenario, duration, progress)
@@ -230,7 +210,7 @@ def cmd_stability(args) -> int:
         from .stability.gallery import make_gallery
         summary = make_gallery(args.out or 'docs/figures', args.figure, quick=args.quick,
                                workers=args.workers,
-                               progress=_Progress('charts', sys.stderr.isatty()))
+                               progress=Progress('charts', sys.stderr.isatty()))
         print(json.dumps(summary, indent=1))
         return 0
     if args.config is None:
@@ -333,7 +313,7 @@ def cmd_demo(args) -> int:
     for name, overrides in (('benchmark_fem', []),
                             ('benchmark_fem_soft_torque', ['model.top_drive=soft_torque'])):
         scenario = load_scenario('benchmark_fem', overrides)
-        series, wall, _ = run_scenario(scenario, progress=_Progress(name, sys.stderr.isatty()))
+        series, wall, _ = run_scenario(scenario, progress=Progress(name, sys.stderr.isatty()))
         path = out / f'{name}.npz'
         np.savez_compressed(path, **series)
         summary = stick_slip_summary(series, 0.0)
@@ -394,7 +374,7 @@ def _first_stick(summary) -> str:
 
 def cmd_reproduce(args) -> int:
     from .reproduce import reproduce
-    bar = _Progress('figures', sys.stderr.isatty() or args.progress)
+    bar = Progress('figures', sys.stderr.isatty() or args.progress)
     t0 = time.perf_counter()
     summary = reproduce(args.out, args.figure, quick=args.quick, workers=args.workers,
                         progress=lambda fraction, _label: bar(fraction))
@@ -488,6 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_recording_parsers(sub)
     add_operations_parsers(sub)
     add_estimation_parsers(sub)
+    add_control_parsers(sub)
     return p
 
 

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
-__all__ = ['print_summary', 'human']
+__all__ = ['print_summary', 'human', 'Progress']
 
 
 def human(value, digits: int = 6) -> str:
@@ -38,3 +39,24 @@ def print_summary(out: dict, as_json: bool, width: int = 22):
                 print(f'{"":>{width}}  {sub}: {human(item)}')
         else:
             print(f'{key:>{width}}: {human(value)}')
+
+
+class Progress:
+    """A minimal progress bar on stderr (only when it is a terminal, or forced)."""
+
+    def __init__(self, label: str, enabled: bool):
+        self.label = label
+        self.enabled = enabled
+        self.last = -1
+
+    def __call__(self, fraction: float):
+        if not self.enabled:
+            return
+        pct = int(100 * fraction)
+        if pct != self.last:
+            self.last = pct
+            bar = '#' * (pct // 4)
+            sys.stderr.write(f'\r{self.label} [{bar:<25}] {pct:3d}%')
+            if pct >= 100:
+                sys.stderr.write('\n')
+            sys.stderr.flush()

@@ -1,6 +1,7 @@
-"""Twin + Soft-Torque controller, the run recorded to MCAP by the twin itself.
+"""Twin + top-drive controller, the run recorded to MCAP by the twin itself.
 
-``ros2 launch drill_twin drill_twin.launch.py [record_path:=run.mcap] [config:=NAME]``.
+``ros2 launch drill_twin drill_twin.launch.py [record_path:=run.mcap] [config:=NAME]
+[controller:=soft_torque|z_torque|stability_tuned|stiff_pi]``.
 By default the run is recorded to ``$ROS_HOME/drill_twin/drill_twin_<UTC time>.mcap``
 (``~/.ros/drill_twin/...``, where ROS keeps its logs: not wherever the user stands);
 ``record_path:=''`` switches recording off.  The twin's own recorder is used
@@ -31,15 +32,20 @@ def generate_launch_description():
     return LaunchDescription([
         DeclareLaunchArgument('record_path', default_value=default_record_path(),
                               description="MCAP file of the run ('' = no recording)"),
-        DeclareLaunchArgument('config', default_value='benchmark_fem',
+        DeclareLaunchArgument('config', default_value='rig_fem',
                               description='configuration name or file (units: si)'),
+        DeclareLaunchArgument('controller', default_value='soft_torque',
+                              description='top_drive_controller mode over topics '
+                              '(docs/control.md)'),
         DeclareLaunchArgument('estimator', default_value='false',
                               description='start downhole_estimator beside the twin'),
         Node(package='drill_twin', executable='twin_node', name='drill_twin',
              parameters=[{'config': config, 'real_time_factor': 1.0,
                           'record_path': LaunchConfiguration('record_path')}]),
-        Node(package='drill_twin', executable='soft_torque_node', name='soft_torque',
-             parameters=[{'config': config, 'control_rate_hz': 100.0}]),
+        Node(package='drill_twin', executable='top_drive_controller',
+             name='top_drive_controller',
+             parameters=[{'config': config, 'control_rate_hz': 100.0,
+                          'mode': LaunchConfiguration('controller')}]),
         Node(package='drill_twin', executable='downhole_estimator', name='downhole_estimator',
              parameters=[{'config': config, 'rate_hz': 100.0}],
              condition=IfCondition(LaunchConfiguration('estimator'))),

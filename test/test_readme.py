@@ -35,6 +35,10 @@ NOT_HERE = {
     'drill-twin estimate study': 'the table of docs/estimation.md, ~15 min (its errors are '
                                  'asserted by test_estimation.py)',
     'downhole_estimator ': 'run over DDS against twin_node by test_estimator_node.py',
+    'drill-twin control compare': 'the figure and table of docs/control.md, ~5 min (the '
+                                  "modes' physics is asserted by test_control.py)",
+    'top_drive_controller ': 'every mode run over DDS against twin_node by '
+                             'test_control_node.py',
     'ros2 topic pub ': 'needs the ros2 CLI (not on PyPI); tried by hand against a colcon '
                        'build of ros2/ros2cli jazzy',
 }

@@ -29,7 +29,7 @@ def test_speed_step_follows_the_drive_lag(rig, tmp_path):
     applied exactly (no wall-clock guess)."""
     from drill_twin.io.mcap_reader import open_recording
     path = tmp_path / 'step.mcap'
-    node = twin(rig, drive_time_constant_s=0.5, record_path=str(path))
+    node = twin(rig, config='benchmark_fem', drive_time_constant_s=0.5, record_path=str(path))
     initial = node.twin.surface_speed_setpoint
     assert rig.spin_until(lambda: node.twin.time_s > 0.5, 20)
     rig.publisher('surface_speed_setpoint').publish(Float64(data=15.0))
@@ -95,7 +95,7 @@ def test_stability_advisory_matches_the_stability_module(rig):
     rig.listen('stability/spectral_abscissa', Float64, lambda m: m.data,
                qos=SETPOINT_QOS)
     assert rig.spin_until(lambda: rig.data['stability/spectral_abscissa'], 60)
-    sc = load_scenario('benchmark_fem')
+    sc = load_scenario('rig_fem')       # the twin's default: the motor drive, closed loop
     ref = rightmost_roots(sc.model, sc.groups).abscissa / sc.scales.time_s
     assert rig.data['stability/spectral_abscissa'][0] == pytest.approx(ref, rel=1e-6)
 

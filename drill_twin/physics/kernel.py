@@ -54,7 +54,15 @@ from .interface_law import (
     switching,
     transition,
 )
-from .time_history import push_velocities, velocities_at_time
+from .time_history import (
+    N_SIGNALS,
+    S_BIT_ANGULAR_SPEED,
+    S_BIT_AXIAL_SPEED,
+    S_MOTOR_SPEED,
+    S_SURFACE_TORQUE,
+    push_sample,
+    sample_at_time,
+)
 
 __all__ = ['Law', 'Top', 'pack_chain', 'advance', 'snapshot', 'layout', 'RECORD_CHANNELS',
            'IN_OMEGA_CMD', 'IN_AXIAL_FORCE', 'IN_BLOCK_VELOCITY', 'N_INPUTS',
@@ -82,7 +90,11 @@ class Top(NamedTuple):
     string's top node carrying the drive (Soft-Torque), 0 when the top is the
     prescribed motion itself; ``drive_tau``: lag of the motor speed
     behind its command (0 = stiff); ``z_a, tau_a, z_t, tau_t``: delayed radiation
-    dash-pots of lumped model III (0 otherwise).
+    dash-pots of lumped model III (0 otherwise).  ``drive_pi``: 1 when DOF 0 is the motor
+    of a PI-controlled top drive (:mod:`drill_twin.physics.top_drive`) with gains ``kp,
+    ki``, torque feedback ``g_t``, torque limit ``t_max``, torque-reference filter
+    ``t_filter`` and sensor delay ``t_delay`` (all dimensionless, :func:`~drill_twin.
+    physics.top_drive.kernel_drive`).
     """
 
     omega_o: float
@@ -101,6 +113,13 @@ class Top(NamedTuple):
     tau_a: float
     z_t: float
     tau_t: float
+    drive_pi: float
+    kp: float
+    ki: float
+    g_t: float
+    t_max: float
+    t_filter: float
+    t_delay: float
 
 
 # run-time inputs ------------------------------------------------------------------------
@@ -116,22 +135,29 @@ RECORD_CHANNELS = ('tau', 'bit_axial_speed', 'bit_angular_speed', 'weight_on_bit
                    'angular_stick', 'axial_mode', 'contact', 'surface_torque',
                    'surface_speed', 'bit_axial_perturbation', 'bit_angle_perturbation',
                    'top_axial_speed', 'stick_time', 'hook_load_change', 'bit_position',
-                   'bit_angle', 'block_position', 'top_angle_perturbation', 'top_drive_speed')
+                   'bit_angle', 'block_position', 'top_angle_perturbation', 'top_drive_speed',
+                   'motor_torque')
 N_RECORD = len(RECORD_CHANNELS)
 # aux values of the right-hand side --------------------------------------------------------
-X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH = 0, 1, 2, 3, 4, 5, 6, 7, 8
-N_AUX = 9
+X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH, X_MOTOR = range(10)
+N_AUX = 10
 # packed chain rows ----------------------------------------------------------------------
 CH_M, CH_C, CH_K, CH_CP, CH_INV, CH_Z = 0, 3, 6, 9, 10, 11
 N_CHAIN_ROWS = 12
 
 
+N_DRIVE_STATES = 5
+
+
 def layout(na: int, nt: int) -> dict:
-    """Slices of the state vector: axial u, u', torsional φ, φ', drive θ_p, ω_p, block z_p."""
+    """Slices of the state vector: axial u, u', torsional φ, φ', then the drives: set-point
+    angle θ_p and speed ω_p, block z_p, the motor drive's integral ϑ_p and torque reference
+    T_ref (perturbations)."""
     d = 2 * na + 2 * nt
     return {'u': slice(0, na), 'v': slice(na, 2 * na), 'phi': slice(2 * na, 2 * na + nt),
             'omega': slice(2 * na + nt, d), 'drive_angle': slice(d, d + 1),
-            'drive_speed': slice(d + 1, d + 2), 'block': slice(d + 2, d + 3)}
+            'drive_speed': slice(d + 1, d + 2), 'block': slice(d + 2, d + 3),
+            'drive_integral': slice(d + 3, d + 4), 'torque_reference': slice(d + 4, d + 5)}
 
 
 def pack_chain(chain) -> np.ndarray:
@@ -227,6 +253,9 @@ class Work(NamedTuple):
     read: np.ndarray
     g: np.ndarray
     g_lo: np.ndarray
+    delayed: np.ndarray
+    values: np.ndarray
+    slopes: np.ndarray
 
 
 @njit(cache=True, nogil=True)
@@ -234,7 +263,8 @@ def _work(n, na, nt, groups):
     return Work(np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
                 np.empty(n), np.zeros(N_AUX), np.empty(na), np.empty(na), np.empty(nt),
                 np.empty(nt), np.zeros(groups), np.zeros(3), np.empty(3 + groups),
-                np.empty(3 + groups))
+                np.empty(3 + groups), np.zeros(N_SIGNALS), np.zeros(N_SIGNALS),
+                np.zeros(N_SIGNALS))
 
 
 @njit(cache=True, nogil=True)
@@ -278,6 +308,8 @@ def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
     dx[d] = om_p
     dx[d + 1] = om_p_dot
     dx[d + 2] = z_p_dot
+    dx[d + 3] = 0.0
+    dx[d + 4] = 0.0
     _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w)
     w_f = w.aux[X_W] - cut
     if nt > 0:
@@ -291,7 +323,7 @@ def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
 @njit(cache=True, nogil=True)
 def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     na = A.shape[1]
-    nt_off = x.size - 3  # the drive block starts at 2 na + 2 nt
+    nt_off = x.size - N_DRIVE_STATES  # the drive block starts at 2 na + 2 nt
     psi = top.psi
     u = x[0:na]
     v = x[na:2 * na]
@@ -301,8 +333,8 @@ def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     if top.z_a > 0.0:
         # lumped model III: pipe force = radiation force of the bit velocity one wave round
         # trip earlier (single-mass chains: DOF 0 is the bit)
-        velocities_at_time(th, thm, tau - top.tau_a, w.read)
-        ra[0] -= top.z_a * (w.read[0] - top.upsilon_o)
+        sample_at_time(th, thm, tau - top.tau_a, w.delayed)
+        ra[0] -= top.z_a * (w.delayed[S_BIT_AXIAL_SPEED] - top.upsilon_o)
     if mode[MD_AX] == AX_STUCK:
         _solve(A, ra, ya)
         lam_c = ya[na - 1] / A[CH_Z, na - 1]
@@ -324,6 +356,39 @@ def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     w.aux[X_WREQ] = w_req
 
 
+@njit(cache=True, nogil=True, inline='always')
+def surface_torque_perturbation(x, T, na):
+    """Perturbation of the torque in the string's first element (a free top node: the
+    motor or the Soft-Torque drive), units C."""
+    nt = T.shape[1]
+    p0, w0 = 2 * na, 2 * na + nt
+    return -T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
+
+
+@njit(cache=True, nogil=True)
+def _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na):
+    """Motor torque of the PI top drive (total, units C) and the derivatives of its
+    integral ϑ_p and torque reference T_ref (docs/control.md, eqs C.1-C.4): sensors
+    delayed by ``t_delay``, torque feedback ``g_t``, limit ``t_max``, back-calculation
+    anti-windup with tracking time kp/ki."""
+    nt = T.shape[1]
+    d = 2 * na + 2 * nt
+    if top.t_delay > 0.0:
+        sample_at_time(th, thm, tau - top.t_delay, w.delayed)
+        speed = w.delayed[S_MOTOR_SPEED]
+        torque = w.delayed[S_SURFACE_TORQUE]
+    else:
+        speed = x[2 * na + nt]
+        torque = surface_torque_perturbation(x, T, na)
+    error = om_p - top.g_t * (torque - x[d + 4]) - speed
+    demand = top.T_o + top.kp * error + top.ki * x[d + 3]
+    motor = min(max(demand, -top.t_max), top.t_max)
+    dx[d + 3] = error + (motor - demand) / top.kp
+    dx[d + 4] = (torque - x[d + 4]) / top.t_filter if top.t_filter > 0.0 else 0.0
+    w.aux[X_MOTOR] = motor
+    return motor
+
+
 @njit(cache=True, nogil=True)
 def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot, dx, w, na):
     nt = T.shape[1]
@@ -333,9 +398,11 @@ def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot
     rt, yt = w.rt, w.yt
     _internal_force(T, ph, om, rt)
     rt[0] += top.k_t * x[d] + top.c_t * om_p + top.m_t * om_p_dot
+    if top.drive_pi > 0.0:
+        rt[0] += _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na) - top.T_o
     if top.z_t > 0.0:
-        velocities_at_time(th, thm, tau - top.tau_t, w.read)
-        rt[0] -= top.z_t * (w.read[1] - top.omega_o)
+        sample_at_time(th, thm, tau - top.tau_t, w.delayed)
+        rt[0] -= top.z_t * (w.delayed[S_BIT_ANGULAR_SPEED] - top.omega_o)
     if mode[MD_ANG] == ANG_STICK:
         _solve(T, rt, yt)
         lam_c = yt[nt - 1] / T[CH_Z, nt - 1]
@@ -437,7 +504,7 @@ def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, g
 
 
 @njit(cache=True, nogil=True)
-def _commit(tau0, x0, f0, tau1, x1, f1, law, top, surf, geom, th, thm, counters, na, nt,
+def _commit(tau0, x0, f0, tau1, x1, f1, law, top, T, surf, geom, th, thm, counters, na, nt,
             start):
     """After an accepted (sub)step: the blades write the surface they swept, and the bit
     velocities go into the time history (model III).  ``start[4] == 1``: the step began
@@ -451,9 +518,26 @@ def _commit(tau0, x0, f0, tau1, x1, f1, law, top, surf, geom, th, thm, counters,
     u1, v1, p1, o1 = bit_totals(tau1, x1, top, na, nt)
     counters[C_WRITES] += write_step(surf, geom, law.offsets, tau0, tau1, u0, u1, p0, p1,
                                      v0, v1, o0, o1)
-    if top.z_a > 0.0 or top.z_t > 0.0:
-        ib = 2 * na + 2 * nt - 1 if nt > 0 else 2 * na + 2 * nt + 1
-        push_velocities(th, thm, tau1, v1, o1, f1[2 * na - 1], f1[ib])
+    if top.z_a > 0.0 or top.z_t > 0.0 or top.t_delay > 0.0:
+        _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt)
+
+
+@njit(cache=True, nogil=True)
+def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt):
+    """Append the delayed signals (time_history.SIGNALS) at the end of a step: the
+    surface torque's slope is that of the first element's torque, from the state slope
+    ``f1``."""
+    ib = 2 * na + 2 * nt - 1 if nt > 0 else 2 * na + 2 * nt + 1
+    values = np.zeros(N_SIGNALS)
+    slopes = np.zeros(N_SIGNALS)
+    values[S_BIT_AXIAL_SPEED], slopes[S_BIT_AXIAL_SPEED] = v1, f1[2 * na - 1]
+    values[S_BIT_ANGULAR_SPEED], slopes[S_BIT_ANGULAR_SPEED] = o1, f1[ib]
+    if top.drive_pi > 0.0 and nt > 1:
+        w0 = 2 * na + nt
+        values[S_MOTOR_SPEED], slopes[S_MOTOR_SPEED] = x1[w0], f1[w0]
+        values[S_SURFACE_TORQUE] = surface_torque_perturbation(x1, T, na)
+        slopes[S_SURFACE_TORQUE] = surface_torque_perturbation(f1, T, na)
+    push_sample(th, thm, tau1, values, slopes)
 
 
 @njit(cache=True, nogil=True, inline='always')
@@ -559,7 +643,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
         gmin = _switching_at(tau + remaining, w.x_end, mode, law, top, inp, A, T, surf, geom,
                              th, thm, w.k4, w, w.g)
         if gmin >= 0.0 or sub == 19:
-            _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, surf, geom, th,
+            _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, T, surf, geom, th,
                     thm, counters, na, nt, start)
             if mode[MD_ANG] == ANG_STICK:
                 tau_arr[1] += remaining
@@ -576,7 +660,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
         _rk4(tau, x, dt, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm, w.x_end, w)
         _switching_at(tau + dt, w.x_end, mode, law, top, inp, A, T, surf, geom, th, thm,
                       w.k4, w, w.g)
-        _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, surf, geom, th, thm,
+        _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, T, surf, geom, th, thm,
                 counters, na, nt, start)
         for i in range(n):
             x[i] = w.x_end[i]
@@ -616,15 +700,19 @@ def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th,
     row[10] = 1.0 if contact > 0 else 0.0
     p0, w0 = 2 * na, 2 * na + nt      # top torsional DOF: angle, speed
     if nt > 1 and top.drive_node > 0.0:  # torque in the string's first element
-        row[11] = top.T_o - T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) \
-            - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
+        row[11] = top.T_o + surface_torque_perturbation(x, T, na)
         row[22] = top.omega_o + x[w0]
+        # the motor's torque: the PI drive's, or the Soft-Torque spring and dash-pot's
+        row[23] = w.aux[X_MOTOR] if top.drive_pi > 0.0 else \
+            top.T_o + top.k_t * (x[d] - x[p0]) + top.c_t * (x[d + 1] - x[w0])
     elif nt > 0:                        # the coupling to the prescribed top
         row[11] = top.T_o + top.k_t * (x[d] - x[p0]) + top.c_t * (x[d + 1] - x[w0])
         row[22] = top.omega_o + x[d + 1]
+        row[23] = row[11]
     else:
         row[11] = w.aux[X_T]
         row[22] = top.omega_o + x[d + 1]
+        row[23] = row[11]
     row[12] = top.omega_o + x[d + 1]
     row[13] = x[na - 1]
     row[14] = x[2 * na + nt - 1] if nt > 0 else x[d]

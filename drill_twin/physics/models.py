@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .parameters import DrillStringSI, ParameterError, soft_torque_tuning
+from .top_drive import kernel_drive
 
 __all__ = ['max_stable_step', 'Chain', 'StringModel', 'lumped_chain', 'fem_chain', 'rgd', 'rgd_k',
            'axial_chain', 'coupled_chain', 'fem_drill_string', 'lumped_bha',
@@ -93,6 +94,10 @@ class StringModel:
     #: finite-element strings: the length of each element [m], and elements per section
     element_lengths_m: np.ndarray | None = None
     section_elements: list | None = None
+    #: a PI motor top drive on the torsional top node (:mod:`drill_twin.physics.top_drive`):
+    #: its SI description and the kernel's dimensionless numbers (``kernel_drive``)
+    top_drive: object | None = None
+    motor_drive: dict | None = None
 
 
 def _tri_from_dense(A: np.ndarray) -> np.ndarray:
@@ -290,7 +295,7 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
                      theta_u: float = 5e-4, theta_phi: float = 1e-4, eta_u: float = 0.0,
                      eta_phi: float = 0.0, top_drive: str = 'speed',
                      axial_top: str = 'hook_load', block_mass_kg: float = 0.0,
-                     line_stiffness_N_m: float = 0.0) -> StringModel:
+                     line_stiffness_N_m: float = 0.0, drive=None) -> StringModel:
     """Finite-element drill string of App. A / §3.2: every section of ``system`` meshed
     with linear elements of its own EA, GJ, ρA, ρJ.
 
@@ -298,8 +303,10 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
     (imposed block motion, node eliminated) or ``'hoist'`` (free node carrying the
     travelling block and hook mass on the drill line's stiffness, whose upper end —
     the drum — moves as commanded).  Torsional top: ``'speed'`` (prescribed surface
-    speed, node eliminated) or ``'soft_torque'`` (drive inertia I_DS on the top node
-    tied to the motor by the tuned k_f, c_f).  Units: masses / M_BHA, inertias /
+    speed, node eliminated), ``'soft_torque'`` (drive inertia I_DS on the top node
+    tied to the motor by the tuned k_f, c_f) or ``'motor'`` (the motor inertia of
+    ``drive``, a :class:`~drill_twin.physics.top_drive.TopDrive`, on the top node, driven
+    by its PI controller in the kernel).  Units: masses / M_BHA, inertias /
     I_BHA, stiffnesses / (M_BHA/t*²) and C.
     """
     if elements < 2:
@@ -336,9 +343,18 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
         tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=False,
                          top_mass=st['inertia'], top_spring=st['stiffness'],
                          top_dashpot=st['damping'])
+    elif top_drive == 'motor':
+        if drive is None:
+            raise ParameterError("top_drive 'motor' needs the drive's description")
+        tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=False,
+                         top_mass=drive.motor_inertia_kgm2 / s.inertia_kgm2)
     else:
-        raise ParameterError(f"top_drive must be 'speed' or 'soft_torque', got {top_drive!r}")
+        raise ParameterError(f"top_drive must be 'speed', 'soft_torque' or 'motor', got "
+                             f'{top_drive!r}')
     model = StringModel(f'fem_{elements}', axial, tors, system.psi)
+    if top_drive == 'motor':
+        model.top_drive = drive
+        model.motor_drive = kernel_drive(drive, system)
     model.element_lengths_m = h
     model.section_elements = counts
     return model
@@ -409,7 +425,8 @@ def max_stable_step(model: StringModel, cap: float = 5e-3) -> float:
     imaginary-axis bound 2.83/ω_max alone is not enough.  Found by bisection on
     h (dense eigenvalues: O(n³), ~1 s for 1000 elements, computed once per model
     and kept on it, since a scenario with ``time_step: auto`` and the Simulation
-    built from it both ask).
+    built from it both ask).  A motor drive's PI loop counts as its linear equivalent, the
+    spring K_i and dash-pot K_p on the top node (torque feedback and limit aside).
     """
     mu = model.__dict__.get('_chain_eigenvalues')
     if mu is None:
@@ -419,8 +436,11 @@ def max_stable_step(model: StringModel, cap: float = 5e-3) -> float:
                 continue
             n = chain.n
             Minv = np.linalg.inv(chain.dense('mass'))
-            A = np.block([[np.zeros((n, n)), np.eye(n)],
-                          [-Minv @ chain.dense('stiffness'), -Minv @ chain.dense('damping')]])
+            K, C = chain.dense('stiffness'), chain.dense('damping')
+            if chain is model.torsional and model.motor_drive:
+                K[0, 0] += model.motor_drive['ki']
+                C[0, 0] += model.motor_drive['kp']
+            A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
             mus.append(np.linalg.eigvals(A))
         mu = np.concatenate(mus)
         # eigen-solver noise can put undamped or rigid-body modes a hair right of the axis

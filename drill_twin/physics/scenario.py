@@ -40,6 +40,7 @@ from .models import (
 )
 from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, StringSection
 from .schema import ConfigError, validate
+from .top_drive import DriveGains, TopDrive, mode_gains
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
            'CONFIG_DIR', 'ConfigError', 'resolve_config', 'read_config']
@@ -175,7 +176,31 @@ def _system_from(cfg: dict) -> DrillStringSI:
     return DrillStringSI(**ds)
 
 
-def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None):
+def _top_drive(cfg: dict, system, groups: BitRockGroups):
+    """The :class:`~drill_twin.physics.top_drive.TopDrive` of ``drive`` (model.top_drive:
+    motor); a ``stability_tuned`` controller gets its gains from the stability module."""
+    d = dict(cfg.get('drive') or {})
+    J = d.get('motor_inertia_kgm2') or system.drive_inertia_kgm2
+    mode = d.get('controller', 'stiff_pi')
+    gains = mode_gains(mode, system, J, d.get('speed_loop_bandwidth_rad_s', 30.0))
+    drive = TopDrive(mode, J, d.get('torque_limit_Nm', 50.0e3),
+                     d.get('speed_loop_bandwidth_rad_s', 30.0), d.get('sensor_delay_s', 0.0),
+                     d.get('torque_filter_s', 20.0), gains)
+    explicit = {k: d.get(k) for k in ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad',
+                                      'torque_feedback_rad_s_Nm')}
+    if mode == 'stability_tuned' and not any(v is not None for v in explicit.values()):
+        # the stability module sits above physics: imported here, at use
+        from ..control.tuning import stability_tuned_drive
+        drive = stability_tuned_drive(cfg, drive)
+    return drive.with_gains(DriveGains(
+        explicit['proportional_gain_Nms_rad'] or drive.gains.proportional_Nms_rad,
+        drive.gains.integral_Nm_rad if explicit['integral_gain_Nm_rad'] is None
+        else explicit['integral_gain_Nm_rad'],
+        drive.gains.torque_feedback_rad_s_Nm if explicit['torque_feedback_rad_s_Nm'] is None
+        else explicit['torque_feedback_rad_s_Nm']))
+
+
+def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, drive=None):
     kind = m['type']
     if m.get('axial_top') == 'hoist' and (kind != 'fem' or system is None):
         raise ParameterError('model.axial_top: hoist needs model.type fem and units: si')
@@ -216,7 +241,7 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None):
     return fem_drill_string(
         system, elements=m['elements'], bha_elements=m.get('bha_elements'),
         theta_u=m['theta_u'], theta_phi=m['theta_phi'], eta_u=m['eta_u'],
-        eta_phi=m['eta_phi'], top_drive=m['top_drive'],
+        eta_phi=m['eta_phi'], top_drive=m['top_drive'], drive=drive,
         axial_top=m.get('axial_top') or 'hook_load',
         block_mass_kg=rig.get('block_mass_kg', 20000.0),
         line_stiffness_N_m=rig.get('line_stiffness_N_m', 2.5e7))
@@ -302,7 +327,9 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
             if angles:
                 groups = groups.replace(blade_angles=tuple(math.radians(a) for a in angles))
             dur, rec = sim['duration'], sim['record_interval']
-        model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'))
+        drive = _top_drive(cfg, system, groups) \
+            if cfg['model'].get('top_drive') == 'motor' and system is not None else None
+        model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive)
         if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
             dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.min_delay)
         else:

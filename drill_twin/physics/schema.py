@@ -114,8 +114,10 @@ MODEL = Section('model', 'the drill-string model', required=True, keys=(
          open_low=False, models=('fem',)),
     _pos('eta_phi', 'torsional mass-proportional (Rayleigh) damping', '1/t*', 100.0, 0.0,
          open_low=False, models=('fem',)),
-    Key('top_drive', 'choice', 'torsional top: prescribed speed or Soft-Torque drive',
-        choices=('speed', 'soft_torque'), default='speed', models=('fem',)),
+    Key('top_drive', 'choice', 'torsional top: a motor behind a PI speed loop (section '
+        'drive, docs/control.md), the ideal stiff speed source, or the ideal Soft-Torque '
+        'spring and dash-pot of §3.2', choices=('motor', 'speed', 'soft_torque'),
+        default='motor', models=('fem',)),
     Key('axial_top', 'choice', 'axial top: constant hook load, imposed block velocity, or a '
         'hoist (block mass on the drill line, SI)', choices=('hook_load', 'velocity', 'hoist'),
         default=None, models=('fem', 'coupled_chain')),
@@ -191,6 +193,27 @@ RIG = Section('rig', 'the hoisting system of model.axial_top: hoist (SI; default
          'reeving)', 'N/m', 1e12, 2.5e7),
 ))
 
+DRIVE = Section('drive', 'the motor top drive of model.top_drive: motor (SI; '
+                'docs/control.md)', units=('si',), keys=(
+    Key('controller', 'choice', 'controller mode', choices=(
+        'stiff_pi', 'soft_torque', 'z_torque', 'stability_tuned'), default='stiff_pi'),
+    _pos('motor_inertia_kgm2', 'motor and gearbox inertia at the quill (default: the '
+         'drive block of §2.2.1)', 'kg m^2', 1e7, None),
+    _pos('torque_limit_Nm', 'motor torque limit', 'N m', 1e7, 50.0e3),
+    _pos('speed_loop_bandwidth_rad_s', 'bandwidth of the stiff speed loop (stiff_pi, '
+         'z_torque)', 'rad/s', 1e4, 30.0),
+    _pos('sensor_delay_s', 'delay of the speed and torque measurements', 's', 10.0, 0.0,
+         open_low=False),
+    _pos('torque_filter_s', 'time constant of the torque reference (torque feedback)', 's',
+         1e4, 20.0),
+    _pos('proportional_gain_Nms_rad', 'K_p instead of the mode\'s tuning', 'N m s/rad', 1e9,
+         None),
+    _pos('integral_gain_Nm_rad', 'K_i instead of the mode\'s tuning', 'N m/rad', 1e10, None,
+         open_low=False),
+    _pos('torque_feedback_rad_s_Nm', 'g_T instead of the mode\'s tuning', 'rad/s/(N m)',
+         1.0, None, open_low=False),
+))
+
 BIT = Section('bit', 'blade layout of the bit', keys=(
     Key('blade_angles_deg', 'float_list', 'angular position of every blade (n_b entries; '
         'default evenly spaced)', 'deg', -360.0, 720.0, default=None),
@@ -236,7 +259,7 @@ SIMULATION = Section('simulation', 'run settings', keys=(
         'compatible with the top boundary', choices=('bit', 'all', 'smooth'), default='bit'),
 ), subsections=(PERTURBATION,))
 
-TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, BIT, SIMULATION)
+TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, DRIVE, BIT, SIMULATION)
 SCHEMA = Section('', 'a drill_twin configuration', keys=(
     Key('units', 'choice', 'si: a physical system, SI in and out; dimensionless: the '
         'research groups of ch. 4-5', choices=('si', 'dimensionless'), default=REQUIRED),

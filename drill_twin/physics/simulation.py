@@ -19,7 +19,14 @@ from .bottom_surface import fill_steady, new_surface, nodes_for
 from .interface_law import ANG_SLIP, AX_DOWN, AX_UP, MD_ANG, MD_AX, MD_CONTACT
 from .models import StringModel, max_stable_step
 from .parameters import BitRockGroups, ParameterError
-from .time_history import new_time_history, push_velocities
+from .time_history import (
+    N_SIGNALS,
+    S_BIT_ANGULAR_SPEED,
+    S_BIT_AXIAL_SPEED,
+    new_time_history,
+    push_sample,
+)
+from .top_drive import kernel_drive
 
 __all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling']
 
@@ -49,6 +56,7 @@ def top_coupling(model: StringModel, groups: BitRockGroups, drive_time_constant:
     z_a = tau_a = z_t = tau_t = 0.0
     if model.delayed_damping is not None:
         z_a, tau_a, z_t, tau_t = model.delayed_damping
+    drive = model.motor_drive or kernel_drive(None, None)
     return K.Top(omega_o=float(groups.omega_o), upsilon_o=float(groups.upsilon_o),
                  W_o=float(groups.W_o), T_o=float(groups.T_o), psi=float(model.psi),
                  k_t=float(tors.k_top) if tors is not None else 0.0,
@@ -57,7 +65,8 @@ def top_coupling(model: StringModel, groups: BitRockGroups, drive_time_constant:
                  k_a=float(model.axial.k_top), c_a=float(model.axial.c_top),
                  drive_node=1.0 if tors is not None and tors.drive_node else 0.0,
                  drive_tau=float(drive_time_constant), z_a=float(z_a), tau_a=float(tau_a),
-                 z_t=float(z_t), tau_t=float(tau_t))
+                 z_t=float(z_t), tau_t=float(tau_t),
+                 **{k: float(v) for k, v in drive.items()})
 
 
 class SimulationDiverged(RuntimeError):
@@ -135,7 +144,7 @@ class Simulation:
         self.inputs[K.IN_BLOCK_VELOCITY] = groups.upsilon_o
         na, nt = self.A.shape[1], self.T.shape[1]
         self.n_axial, self.n_torsional = na, nt
-        self.x = np.zeros(2 * na + 2 * nt + 3)
+        self.x = np.zeros(2 * na + 2 * nt + K.N_DRIVE_STATES)
         self.mode = np.zeros(MD_CONTACT + self.law.offsets.size, np.int64)
         self.mode[MD_ANG], self.mode[MD_AX] = ANG_SLIP, AX_DOWN
         self.mode[MD_CONTACT:] = 1
@@ -148,13 +157,15 @@ class Simulation:
         self.surface, self.geom = new_surface(period, nodes, min_gap)
         fill_steady(self.surface, self.geom, self.law.offsets, groups.upsilon_o,
                     groups.omega_o)
-        # the velocity history of the constant delays of lumped model III
-        memory = max(self.top.tau_a, self.top.tau_t)
+        # the signal history of the constant delays (lumped model III, drive sensors)
+        memory = max(self.top.tau_a, self.top.tau_t, self.top.t_delay)
         self.th, self.thm = new_time_history(int(1.5 * memory / self.h) + 64 if memory else 4)
         if memory:
+            steady = np.zeros(N_SIGNALS)
+            steady[S_BIT_AXIAL_SPEED] = groups.upsilon_o
+            steady[S_BIT_ANGULAR_SPEED] = groups.omega_o
             for k in range(int(1.2 * memory / self.h) + 2, -1, -1):
-                push_velocities(self.th, self.thm, -k * self.h, groups.upsilon_o,
-                                groups.omega_o, 0.0, 0.0)
+                push_sample(self.th, self.thm, -k * self.h, steady, np.zeros(N_SIGNALS))
 
     # --- state access -------------------------------------------------------------
     @classmethod
@@ -188,7 +199,8 @@ class Simulation:
 
         ``where='bit'`` perturbs the bit DOFs only, ``'all'`` every DOF (a rigid
         shift), ``'smooth'`` a field compatible with the top boundary: uniform for a
-        free top, linear from zero at a prescribed top to the value at the bit (so
+        free top, linear from zero at a prescribed or driven top (spring, dash-pot, or the
+        motor drive's controller) to the value at the bit (so
         no element is suddenly strained; in a finite-element string a perturbation
         of the bit node alone is a local strain spike that sticks the bit at once).
         """
@@ -207,7 +219,9 @@ class Simulation:
             elif where == 'smooth':
                 chain = self.model.axial if name in ('u', 'v') else self.model.torsional
                 n = idx.stop - idx.start
-                fixed = chain.k_top > 0 or chain.c_top > 0
+                # a top held by a spring, a dash-pot or the drive's controller
+                fixed = chain.k_top > 0 or chain.c_top > 0 or (
+                    name in ('phi', 'omega') and bool(self.model.motor_drive))
                 profile = np.arange(1, n + 1) / n if fixed else np.ones(n)
                 self.x[idx] += val * profile
             else:
@@ -228,13 +242,20 @@ class Simulation:
             self.start_bit[:] = (0.0, g.upsilon_o, 0.0, g.omega_o, 1.0)
 
     def set_perturbation_state(self, y):
-        """Set the perturbation state ``[u, u', φ, φ']`` of all DOFs (the layout of
+        """Set the perturbation state ``[u, u', φ, φ']`` of all DOFs, followed for a motor
+        drive by its integral ϑ_p and torque reference T_ref (the layout of
         :func:`drill_twin.stability.linearize.linearize`)."""
         y = np.asarray(y, float)
         n = 2 * self.n_axial + 2 * self.n_torsional
-        if y.shape != (n,) or not np.all(np.isfinite(y)):
-            raise ParameterError(f'perturbation state must be {n} finite numbers')
-        self.x[:n] = y
+        sizes = (n, n + 2) if self.model.motor_drive else (n,)
+        if y.shape not in [(k,) for k in sizes] or not np.all(np.isfinite(y)):
+            raise ParameterError(f'perturbation state must be {" or ".join(map(str, sizes))}'
+                                 ' finite numbers')
+        self.x[:n] = y[:n]
+        if y.size > n:
+            sl = self.slices()
+            self.x[sl['drive_integral']] = y[n]
+            self.x[sl['torque_reference']] = y[n + 1]
         self._jump_from_initial_function()
 
     def set_surface_speed(self, omega: float):

@@ -48,10 +48,14 @@ class SoftTorqueController:
         Rate limit of the command.
     torque_filter_s : float
         Time constant of the T_ref low-pass [s].
+    torque_feedback : float
+        g_T [rad/s per N m]: the virtual drive tracks ``ω_set - g_T (T_s - T_ref)``
+        instead of ``ω_set`` (Z-Torque and the stability-tuned drive,
+        :mod:`drill_twin.physics.top_drive`); 0 for Soft-Torque.
     """
 
     def __init__(self, inertia, stiffness, damping, max_speed_rad_s=40.0,
-                 max_accel_rad_s2=20.0, torque_filter_s=20.0):
+                 max_accel_rad_s2=20.0, torque_filter_s=20.0, torque_feedback=0.0):
         for name, v in (('inertia', inertia), ('stiffness', stiffness), ('damping', damping)):
             if not (math.isfinite(v) and v > 0):
                 raise ParameterError(f'Soft-Torque {name} must be finite and > 0, got {v!r}')
@@ -60,6 +64,10 @@ class SoftTorqueController:
         self.max_speed = float(max_speed_rad_s)
         self.max_accel = float(max_accel_rad_s2)
         self.torque_filter_s = float(torque_filter_s)
+        if not (math.isfinite(torque_feedback) and torque_feedback >= 0):
+            raise ParameterError(f'torque feedback must be finite and >= 0, got '
+                                 f'{torque_feedback!r}')
+        self.torque_feedback = float(torque_feedback)
         self.enabled = True
         self.setpoint = None
         self.speed = None
@@ -88,12 +96,14 @@ class SoftTorqueController:
             self.torque_ref = surface_torque
         a = min(1.0, dt / self.torque_filter_s)
         self.torque_ref += a * (surface_torque - self.torque_ref)
+        swing = surface_torque - self.torque_ref
+        reference = self.setpoint - self.torque_feedback * swing
         # semi-implicit Euler of the virtual drive (stable for dt < 2 sqrt(I/k))
-        accel = (self.stiffness * self.twist + self.damping * (self.setpoint - self.speed)
-                 - (surface_torque - self.torque_ref)) / self.inertia
+        accel = (self.stiffness * self.twist + self.damping * (reference - self.speed)
+                 - swing) / self.inertia
         target = self.speed + dt * accel
         self.speed = self._bounded(target, dt)
-        self.twist += dt * (self.setpoint - self.speed)
+        self.twist += dt * (reference - self.speed)
         return self.speed
 
     def _bounded(self, target, dt):

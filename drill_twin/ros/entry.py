@@ -15,7 +15,7 @@ import sys
 from contextlib import contextmanager
 
 __all__ = ['install_quiet_signals', 'rclpy_took_over', 'interruptible', 'twin_node',
-           'soft_torque_node', 'mcap_recorder', 'downhole_estimator']
+           'soft_torque_node', 'top_drive_controller', 'mcap_recorder', 'downhole_estimator']
 
 _ROS_HANDLES_SIGNALS = [False]
 _INTERRUPTIBLE = [False]
@@ -52,12 +52,12 @@ def interruptible():
         _INTERRUPTIBLE[0] = before
 
 
-def _run(module: str) -> int:
+def _run(module: str, function: str = 'main') -> int:
     """Run a node's ``main`` and leave at once: the node has closed its recording and shut
     ROS down, so the interpreter's own teardown (about half a second of module and JIT
     clean-up) is skipped, which keeps a signalled node's exit well under a second."""
     install_quiet_signals()
-    code = importlib.import_module(module).main()
+    code = getattr(importlib.import_module(module), function)()
     logging.shutdown()
     sys.stdout.flush()
     sys.stderr.flush()
@@ -70,6 +70,10 @@ def twin_node() -> int:
 
 def soft_torque_node() -> int:
     return _run('drill_twin.ros.soft_torque_node')
+
+
+def top_drive_controller() -> int:
+    return _run('drill_twin.ros.soft_torque_node', 'main_top_drive_controller')
 
 
 def mcap_recorder() -> int:

@@ -1,11 +1,13 @@
-"""``soft_torque_node``: Soft-Torque stick-slip controller over topics (adapter over
-:class:`drill_twin.physics.soft_torque.SoftTorqueController`).
+"""``top_drive_controller`` (and its old name ``soft_torque_node``): the top-drive
+controller modes over topics (adapter over :mod:`drill_twin.control.external`).
 
-Inputs: the operator's ``surface_speed_setpoint`` [rad/s] and the measured
-``surface/torque`` [N m].  Output: ``surface_speed_command`` [rad/s] at
-``control_rate_hz``.  Tuning (I_DS, k_f, c_f, ξ_opt) is computed from the string
-in ``config``.  The controller integrates on the node clock, so with
-``use_sim_time`` it follows the twin's ``/clock``.
+``mode`` (start-up): ``soft_torque`` (default; the §3.2 tuning), ``z_torque``
+(impedance matching), ``stability_tuned`` (gains tuned by the stability module at
+start-up, seconds) or ``stiff_pi`` (pass-through: the drive's own loop).  Inputs: the
+operator's ``surface_speed_setpoint`` [rad/s] and the measured ``surface/torque`` [N m].
+Output: ``surface_speed_command`` [rad/s] at ``control_rate_hz``.  Gains are computed
+from the string in ``config`` (its motor drive data).  The controller integrates on the
+node clock, so with ``use_sim_time`` it follows the twin's ``/clock``.
 If torque measurements stop for ``measurement_timeout_s``
 (:class:`~drill_twin.runtime.arbitration.Watchdog`) the node commands the
 operator set-point unchanged and says so (diagnostics + log); it resumes when
@@ -23,35 +25,30 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
-from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario
-from ..physics.soft_torque import SoftTorqueController, soft_torque_si
+from ..control.external import external_controller, mode_drive
 from ..runtime.arbitration import Watchdog
 from ..runtime.settings import CONTROLLER_SETTINGS
 from .common import declare_settings, run_node, warn_unknown_overrides
 from .twin_node import COMMAND_QOS, SETPOINT_QOS
 
-__all__ = ['SoftTorqueNode', 'main']
+__all__ = ['TopDriveControllerNode', 'SoftTorqueNode', 'main', 'main_top_drive_controller']
 
 
-class SoftTorqueNode(Node):
-    """The Soft-Torque controller node (see module docstring)."""
+class TopDriveControllerNode(Node):
+    """The top-drive controller node (see module docstring)."""
 
-    def __init__(self, **kwargs):
-        super().__init__('soft_torque', **kwargs)
+    def __init__(self, node_name='top_drive_controller', **kwargs):
+        super().__init__(node_name, **kwargs)
         declare_settings(self, CONTROLLER_SETTINGS)
         warn_unknown_overrides(self)
         g = self._param
-        scenario = load_scenario(g('config'))
-        if not scenario.is_si:
-            raise ParameterError('soft_torque_node needs an SI configuration (units: si)')
-        self.tuning = soft_torque_si(scenario.system)
-        self.ctrl = SoftTorqueController(
-            self.tuning['inertia'], self.tuning['stiffness'], self.tuning['damping'],
-            max_speed_rad_s=g('max_surface_speed_rad_s'),
+        self.mode = g('mode')
+        self.drive = mode_drive(self.mode, g('config'))
+        self.ctrl = external_controller(
+            self.drive, max_speed_rad_s=g('max_surface_speed_rad_s'),
             max_accel_rad_s2=g('max_acceleration_rad_s2'),
             torque_filter_s=g('torque_filter_s'))
-        self.ctrl.enabled = g('enabled')
+        self.ctrl.enabled = g('enabled') and self.mode != 'stiff_pi'
         self.setpoint = None
         self.torque = None
         self.torque_watch = Watchdog(g('measurement_timeout_s'))
@@ -69,9 +66,11 @@ class SoftTorqueNode(Node):
         self.create_timer(1.0, self._diagnostics)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        gains = self.drive.gains
         self.get_logger().info(
-            'Soft-Torque tuned: I_DS {inertia:.0f} kg m2, k_f {stiffness:.0f} N m/rad, '
-            'c_f {damping:.0f} N m s/rad, xi_opt {xi_opt:.3f}'.format(**self.tuning))
+            f'{self.mode}: J {self.drive.motor_inertia_kgm2:.0f} kg m2, K_p '
+            f'{gains.proportional_Nms_rad:.4g} N m s/rad, K_i {gains.integral_Nm_rad:.4g} '
+            f'N m/rad, g_T {gains.torque_feedback_rad_s_Nm:.4g} rad/s/(N m)')
 
     def _param(self, name):
         return self.get_parameter(name).value
@@ -104,7 +103,7 @@ class SoftTorqueNode(Node):
     def _apply_parameters(self, params):
         for prm in params:
             if prm.name == 'enabled':
-                self.ctrl.enabled = bool(prm.value)
+                self.ctrl.enabled = bool(prm.value) and self.mode != 'stiff_pi'
                 if prm.value and self.setpoint is not None:
                     self.ctrl.reset(self.setpoint, torque=self.torque)
             elif prm.name == 'control_rate_hz':
@@ -140,13 +139,13 @@ class SoftTorqueNode(Node):
             command = self.setpoint
         else:
             if self.in_fallback:
-                self.get_logger().info('surface torque back: Soft-Torque resumes')
+                self.get_logger().info(f'surface torque back: {self.mode} resumes')
                 self.in_fallback = False
             command = self.ctrl.update(dt, self.setpoint, self.torque)
         self.cmd_pub.publish(Float64(data=float(command)))
 
     def _diagnostics(self):
-        st = DiagnosticStatus(name='drill_twin: soft_torque', hardware_id='drill_twin')
+        st = DiagnosticStatus(name=f'drill_twin: {self.get_name()}', hardware_id='drill_twin')
         if self.in_fallback:
             st.level = DiagnosticStatus.WARN
             st.message = ('surface torque stopped: holding the set-point' if
@@ -154,17 +153,36 @@ class SoftTorqueNode(Node):
                           'no surface torque yet: holding the set-point')
         else:
             st.level = DiagnosticStatus.OK
-            st.message = 'enabled' if self.ctrl.enabled else 'disabled (passing the set-point)'
+            st.message = f'{self.mode} enabled' if self.ctrl.enabled else \
+                f'{self.mode}: passing the set-point'
+        g = self.drive.gains
         st.values = [KeyValue(key='fallbacks', value=str(self.fallbacks)),
                      KeyValue(key='rejected_setpoints', value=str(self.rejected)),
-                     KeyValue(key='xi_opt', value=f"{self.tuning['xi_opt']:.4f}")]
+                     KeyValue(key='mode', value=self.mode),
+                     KeyValue(key='proportional_gain_Nms_rad',
+                              value=f'{g.proportional_Nms_rad:.6g}'),
+                     KeyValue(key='integral_gain_Nm_rad', value=f'{g.integral_Nm_rad:.6g}'),
+                     KeyValue(key='torque_feedback_rad_s_Nm',
+                              value=f'{g.torque_feedback_rad_s_Nm:.6g}')]
         arr = DiagnosticArray(status=[st])
         arr.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(arr)
 
 
+class SoftTorqueNode(TopDriveControllerNode):
+    """The controller under its first name (node ``soft_torque``, mode soft_torque by
+    default): ``ros2 run drill_twin soft_torque_node`` keeps working."""
+
+    def __init__(self, **kwargs):
+        super().__init__('soft_torque', **kwargs)
+
+
 def main(args=None):
     return run_node(SoftTorqueNode, 'soft_torque_node', args)
+
+
+def main_top_drive_controller(args=None):
+    return run_node(TopDriveControllerNode, 'top_drive_controller', args)
 
 
 if __name__ == '__main__':

@@ -52,7 +52,7 @@ def check(setting: Setting, value) -> str | None:
 
 
 TWIN_SETTINGS = (
-    Setting('config', 'benchmark_fem', 'configuration file, or a name in '
+    Setting('config', 'rig_fem', 'configuration file, or a name in '
             'share/drill_twin/config (units: si)', read_only=True),
     Setting('overrides', [''], 'configuration overrides KEY=VALUE (dotted keys)',
             read_only=True),
@@ -77,10 +77,12 @@ TWIN_SETTINGS = (
 )
 
 CONTROLLER_SETTINGS = (
-    Setting('config', 'benchmark_fem', 'string configuration the tuning is computed from '
-            '(units: si)', read_only=True),
+    Setting('config', 'rig_fem', 'string and drive configuration the gains are computed '
+            'from (units: si)', read_only=True),
+    Setting('mode', 'soft_torque', 'controller: soft_torque | z_torque | stability_tuned | '
+            'stiff_pi (docs/control.md)', read_only=True),
     Setting('control_rate_hz', 100.0, 'command rate', 'Hz', 1.0, 5000.0),
-    Setting('enabled', True, 'Soft-Torque on (true) or pass the set-point through (false)'),
+    Setting('enabled', True, 'controller on (true) or pass the set-point through (false)'),
     Setting('max_surface_speed_rad_s', 40.0, 'command upper bound; larger set-points are '
             'rejected', 'rad/s', 0.1, 100.0),
     Setting('max_acceleration_rad_s2', 20.0, 'command rate limit', 'rad/s^2', 0.01, 1000.0),

@@ -34,6 +34,19 @@ each blade contributes ``s(τ) - s(τ - τ_b,0)`` with the same ``s = u_b - α_o
 
 — the even bit is the case where all n_b delays coincide.  Blades with equal gaps
 are grouped into one delayed term.
+
+Motor top drive (docs/control.md)
+---------------------------------
+With a PI motor drive on the top node the state grows by the controller's integral ϑ
+and torque reference T_ref, ``y = [u, u', φ, φ', ϑ, T_ref]``.  Below its torque limit the
+drive is linear; with the surface torque ``T_s = s_Tᵀ y`` (first element) and the
+measured signals delayed by τ_m,
+
+    T_m = K_p r(τ - τ_m) + K_p g_T T_ref + K_i ϑ,     r = -(φ'_0 + g_T T_s),
+    ϑ'  = r(τ - τ_m) + g_T T_ref,                     T_ref' = (T_s(τ - τ_m) - T_ref)/τ_f,
+
+and ``T_m`` enters the motor row ``φ''_0``.  ``r`` and ``T_s`` are two scalars, so with
+τ_m > 0 the delayed part is two rank-one terms of delay τ_m (in A0 when τ_m = 0).
 """
 from __future__ import annotations
 
@@ -130,6 +143,9 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         A1_total = A1
         A1 = A1_total * (count / nb)
         extra += [(A1_total * (k / nb), tau) for tau, k in rest]
+    if model.motor_drive:
+        A0, A1, extra = _with_motor_drive(model, A0, A1, extra)
+        labels += ['drive_integral', 'torque_reference']
     if model.delayed_damping is not None:  # lumped model III (single masses)
         z_a, tau_a, z_t, tau_t = model.delayed_damping
         B = np.zeros((n, n))
@@ -139,6 +155,55 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         B[2 * na + nt, 2 * na + nt] = -z_t / tr.dense('mass')[0, 0]
         extra.append((B, tau_t))
     return LinearDDE(A0, A1, delay, labels, extra)
+
+
+def surface_torque_row(model: StringModel) -> np.ndarray:
+    """``s_T`` with ``T_s = s_Tᵀ y``: torque in the first element of the torsional chain
+    (units C) over the state ``[u, u', φ, φ']``."""
+    na, tr = model.axial.n, model.torsional
+    nt = tr.n
+    row = np.zeros(2 * na + 2 * nt)
+    k01, c01 = tr.stiffness[2, 0], tr.damping[2, 0]
+    p0, w0 = 2 * na, 2 * na + nt
+    row[p0], row[p0 + 1] = -k01, k01
+    row[w0], row[w0 + 1] = -c01, c01
+    return row
+
+
+def _with_motor_drive(model: StringModel, A0, A1, extra):
+    """Append ϑ and T_ref to the linearisation (module docstring, 'Motor top drive')."""
+    d = model.motor_drive
+    n = A0.shape[0]
+    na, nt = model.axial.n, model.torsional.n
+    w0 = 2 * na + nt
+    m = n + 2
+    i_int, i_ref = n, n + 1
+
+    def grow(M):
+        out = np.zeros((m, m))
+        out[:n, :n] = M
+        return out
+    A0, A1 = grow(A0), grow(A1)
+    extra = [(grow(B), tau) for B, tau in extra]
+    s_T = np.zeros(m)
+    s_T[:n] = surface_torque_row(model)
+    r_sel = -d['g_t'] * s_T
+    r_sel[w0] -= 1.0
+    # column of the motor torque in the velocity rows, plus the integral's row
+    col = np.zeros(m)
+    col[w0:w0 + nt] = np.linalg.inv(model.torsional.dense('mass'))[:, 0]
+    r_col = d['kp'] * col
+    r_col[i_int] += 1.0
+    A0 += np.outer(d['ki'] * col, np.eye(m)[i_int])
+    A0 += np.outer(r_col, d['g_t'] * np.eye(m)[i_ref])
+    A0[i_ref, i_ref] -= 1.0 / d['t_filter']
+    ref_col = np.eye(m)[i_ref] / d['t_filter']
+    if d['t_delay'] > 0:
+        extra += [(np.outer(r_col, r_sel), d['t_delay']), (np.outer(ref_col, s_T),
+                                                          d['t_delay'])]
+    else:
+        A0 += np.outer(r_col, r_sel) + np.outer(ref_col, s_T)
+    return A0, A1, extra
 
 
 def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: float,
