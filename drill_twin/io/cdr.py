@@ -3,9 +3,10 @@ ROS runtime needed): the one place that talks to the CDR library.
 
 Decoding uses ``mcap_ros2.decoder.DecoderFactory`` (public API).  Encoding uses
 ``mcap_ros2``'s dynamic serialiser, which that package does not export publicly:
-``requirements/base.txt`` pins ``mcap-ros2-support`` to the version whose behaviour
-``test/test_cdr_contract.py`` checks (round trip of every message type drill_twin
-writes, byte for byte against rclpy's own serialisation).
+``requirements/base.txt`` (hence ``install_requires``) pins ``mcap-ros2-support`` to the
+exact version whose behaviour ``test/test_cdr_contract.py`` checks (every message type
+drill_twin writes, in both directions against rclpy's own serialisation, compared on the
+decoded values: CDR padding bytes are not deterministic).
 """
 from __future__ import annotations
 

@@ -31,6 +31,7 @@ from mcap.writer import CompressionType, Writer
 
 from .cdr import decoder_for
 from .mcap_writer import PROFILE
+from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata
 
 __all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
            'check_decodable', 'RUN_METADATA']
@@ -371,6 +372,8 @@ def recover(broken, fixed) -> dict:
         cid = {k: writer.register_channel(c.topic, c.message_encoding, sid.get(c.schema_id, 0),
                                           dict(c.metadata)) for k, c in channels.items()}
         for item in items:
+            if isinstance(item, Metadata) and item.name == RECORD_NAME:
+                continue   # rewritten below for what was recovered
             if isinstance(item, Metadata):
                 writer.add_metadata(item.name, dict(item.metadata))
             elif item.channel_id in cid:
@@ -378,5 +381,22 @@ def recover(broken, fixed) -> dict:
                                    data=item.data, publish_time=item.publish_time,
                                    sequence=item.sequence)
                 counts['messages'] += 1
+        writer.add_metadata(RECORD_NAME, {'serialized_metadata': serialized_metadata(
+            _recovered_metadata(fixed.name, schemas, channels, items))})
         writer.finish()
     return counts
+
+
+def _recovered_metadata(file_name, schemas, channels, items) -> dict:
+    """rosbag2's metadata record for the messages a recovery kept."""
+    times = [m.log_time for m in items if isinstance(m, Message) and m.channel_id in channels]
+    counts = {}
+    for m in items:
+        if isinstance(m, Message):
+            counts[m.channel_id] = counts.get(m.channel_id, 0) + 1
+    topics = [{'name': c.topic, 'type': schemas[c.schema_id].name,
+               'offered_qos_profiles': c.metadata.get('offered_qos_profiles', '[]'),
+               'type_description_hash': c.metadata.get('topic_type_hash', ''),
+               'message_count': counts.get(k, 0)} for k, c in channels.items()
+              if c.schema_id in schemas]
+    return bag_metadata(file_name, topics, min(times, default=0), max(times, default=0))

@@ -64,7 +64,8 @@ from mcap.records import (
 from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .cdr import encoder_for
-from .msg_definitions import normalize_type, schema_text
+from .msg_definitions import normalize_type, schema_text, type_hash
+from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata
 
 __all__ = ['McapRecorder', 'qos_yaml', 'PROFILE', 'MAGIC']
 
@@ -192,7 +193,8 @@ class McapRecorder:
             self._emit(schema)
         channel = Channel(id=len(self._channels) + 1, topic=topic, message_encoding='cdr',
                           schema_id=schema.id,
-                          metadata={'offered_qos_profiles': qos_yaml(qos)})
+                          metadata={'offered_qos_profiles': qos_yaml(qos),
+                                    'topic_type_hash': type_hash(full)})
         self._channels[topic] = channel
         self._encoders[topic] = encoder_for(full, schema.data.decode())
         self._emit(channel)
@@ -270,13 +272,26 @@ class McapRecorder:
     def add_metadata(self, name: str, data: dict):
         """An MCAP metadata record (string keys and values)."""
         with self._lock:
-            record = Metadata(name=name, metadata={str(k): str(v) for k, v in data.items()})
-            builder = RecordBuilder()
-            record.write(builder)
-            length = builder.count
-            offset = self._emit(record)
-            self._metadata_indexes.append(MetadataIndex(offset=offset, length=length,
-                                                        name=name))
+            self._add_metadata(name, data)
+
+    def _add_metadata(self, name: str, data: dict):
+        record = Metadata(name=name, metadata={str(k): str(v) for k, v in data.items()})
+        builder = RecordBuilder()
+        record.write(builder)
+        length = builder.count
+        offset = self._emit(record)
+        self._metadata_indexes.append(MetadataIndex(offset=offset, length=length, name=name))
+
+    def bag_metadata(self) -> dict:
+        """rosbag2's metadata of what was written so far (:mod:`.rosbag2_metadata`)."""
+        schemas = {s.id: s.name for s in self._schemas.values()}
+        topics = [{'name': c.topic, 'type': schemas[c.schema_id],
+                   'offered_qos_profiles': c.metadata['offered_qos_profiles'],
+                   'type_description_hash': c.metadata['topic_type_hash'],
+                   'message_count': self._counts.get(c.id, 0)}
+                  for c in self._channels.values()]
+        return bag_metadata(self.path.name, topics, self._start_time or 0,
+                            self._end_time or 0)
 
     # --- the end -------------------------------------------------------------------
     def close(self):
@@ -286,6 +301,8 @@ class McapRecorder:
                 return
             self.closed = True
             self._close_chunk()
+            self._add_metadata(RECORD_NAME, {'serialized_metadata': serialized_metadata(
+                self.bag_metadata())})
             self._emit(DataEnd(data_section_crc=0))
             self._write_summary()
             self._file.close()

@@ -1,24 +1,29 @@
-"""rosbag2 schema text of a ROS 2 message type, built from the installed ``.msg`` files.
+"""rosbag2 schema text and type hash of a ROS 2 message type, from the installed files.
 
-rosbag2 (``ros2msg`` schema encoding) stores the root definition first and
-every nested type after it, each preceded by a line of 80 ``=`` and
-``MSG: pkg/Type``; each type appears once, in depth-first order of first use
-(what ``rosbag2_cpp`` and Foxglove expect).  The ``.msg`` files are looked up in
-the ``share/<pkg>/msg`` directory of every prefix on ``AMENT_PREFIX_PATH``, then
-in the running interpreter's prefix (where the PyPI ROS wheels put them).
+Schema text: exactly what rosbag2 Jazzy writes (``rosbag2_cpp``'s
+``LocalMessageDefinitionSource::get_full_text``): the root ``.msg`` file verbatim, then
+for each dependency not written yet — dependencies of a definition in *alphabetical*
+order of their ``pkg/Type`` name (a ``std::set``), depth first — a newline, a line of 80
+``=``, ``MSG: pkg/Type`` and that file verbatim.  Dependencies are the field types found
+by rosbag2's own pattern (first token of a line, primitives excepted; a bare ``Type`` is
+in the definition's package).  Type hash: the ``RIHS01_...`` string of the type in its
+installed ``.json`` type description (what Jazzy's rosbag2 stores as
+``topic_type_hash``).  Files are looked up in the ``share/<pkg>/msg`` directory of every
+prefix on ``AMENT_PREFIX_PATH``, then in the running interpreter's prefix (where the PyPI
+ROS wheels put them).
 """
 from __future__ import annotations
 
 import functools
+import json
 import os
 import re
 import sys
 from pathlib import Path
 
-__all__ = ['schema_text', 'find_msg_file', 'MessageDefinitionError', 'normalize_type']
+__all__ = ['schema_text', 'type_hash', 'find_msg_file', 'MessageDefinitionError',
+           'normalize_type']
 
-_PRIMITIVES = {'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16',
-               'uint16', 'int32', 'uint32', 'int64', 'uint64', 'string', 'wstring'}
 _SEPARATOR = '=' * 80
 
 
@@ -55,41 +60,54 @@ def find_msg_file(type_name: str) -> Path:
         '(install the ROS message packages: requirements/ros.txt, or source a ROS 2 setup)')
 
 
-def _field_types(pkg: str, text: str):
-    """Nested (non-primitive) types used by a definition, in order, as ``pkg/Type``."""
-    for line in text.splitlines():
-        line = line.split('#', 1)[0].strip()
-        if not line:
+#: rosbag2's MSG_FIELD_TYPE_REGEX and PRIMITIVE_TYPES (local_message_definition_source.cpp)
+_FIELD_TYPE = re.compile(r'(?:^|\n)\s*([a-zA-Z0-9_/]+)(?:\[[^\]]*\])?\s+')
+_ROSBAG2_PRIMITIVES = {'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16',
+                       'uint16', 'int32', 'uint32', 'int64', 'uint64', 'string'}
+
+
+def _dependencies(pkg: str, text: str) -> list[str]:
+    """Field types of a definition as rosbag2 finds them, sorted (``pkg/Type``)."""
+    deps = set()
+    for match in _FIELD_TYPE.finditer(text):
+        name = match.group(1)
+        if name in _ROSBAG2_PRIMITIVES:
             continue
-        tokens = line.split()
-        if len(tokens) < 2 or '=' in tokens[1] or tokens[2:3] and tokens[2].startswith('='):
-            continue  # a constant (TYPE NAME=VALUE) or malformed
-        base = re.sub(r'\[.*?\]$', '', tokens[0]).split('<=')[0]
-        if base in _PRIMITIVES:
-            continue
-        yield base if '/' in base else f'{pkg}/{base}'
+        deps.add(name if '/' in name else f'{pkg}/{name}')
+    return sorted(deps)
 
 
 @functools.cache
 def schema_text(type_name: str) -> str:
-    """Full rosbag2 ``ros2msg`` definition of ``pkg/msg/Type`` (root first, then each
-    dependency once after a separator line)."""
-    root_pkg, root_name = normalize_type(type_name)
-    blocks, seen = [], {f'{root_pkg}/{root_name}'}
+    """Full rosbag2 ``ros2msg`` definition of ``pkg/msg/Type`` (module docstring)."""
+    seen = set()
 
-    def visit(pkg_type):
+    def full_text(pkg_type):
         pkg, _ = normalize_type(pkg_type)
         text = find_msg_file(pkg_type).read_text()
-        blocks.append((pkg_type, text))
-        for dep in _field_types(pkg, text):
-            dep_pkg, dep_name = normalize_type(dep)
-            key = f'{dep_pkg}/{dep_name}'
-            if key not in seen:
-                seen.add(key)
-                visit(key)
+        out = text
+        for dep in _dependencies(pkg, text):
+            if dep not in seen:
+                seen.add(dep)
+                out += f'\n{_SEPARATOR}\nMSG: {dep}\n' + full_text(dep)
+        return out
 
-    visit(f'{root_pkg}/{root_name}')
-    out = blocks[0][1].rstrip('\n') + '\n'
-    for name, text in blocks[1:]:
-        out += f'{_SEPARATOR}\nMSG: {name}\n{text.rstrip(chr(10))}\n'
-    return out
+    pkg, name = normalize_type(type_name)
+    return full_text(f'{pkg}/{name}')
+
+
+@functools.cache
+def type_hash(type_name: str) -> str:
+    """``RIHS01_...`` hash of ``pkg/msg/Type`` from its installed ``.json`` description."""
+    pkg, name = normalize_type(type_name)
+    path = find_msg_file(f'{pkg}/{name}').with_suffix('.json')
+    try:
+        hashes = json.loads(path.read_text())['type_hashes']
+    except (OSError, ValueError, KeyError) as exc:
+        raise MessageDefinitionError(f'no type description for {pkg}/msg/{name} at {path}: '
+                                     f'{exc}') from None
+    full = f'{pkg}/msg/{name}'
+    for entry in hashes:
+        if entry.get('type_name') == full:
+            return entry['hash_string']
+    raise MessageDefinitionError(f'{path} has no hash for {full}')

@@ -1,0 +1,55 @@
+"""The ``rosbag2`` metadata record of an MCAP file, as rosbag2 Jazzy writes it.
+
+``rosbag2_storage_mcap`` ends a recording with an MCAP metadata record named ``rosbag2``
+whose one key ``serialized_metadata`` is the bag metadata YAML (``rosbag2_storage/
+yaml.hpp``, ``BagMetadata`` version 9): version, storage identifier, duration
+(``nanoseconds``), starting time (``nanoseconds_since_epoch``), message count, every topic
+with its type, serialization format, offered QoS profiles (a YAML list in version 9),
+type description hash and message count, compression (none: MCAP chunks carry their own),
+the relative file paths, the files, custom data and the ROS distribution.  ``ros2 bag
+info`` reads the same numbers from the MCAP summary; the record is what rosbag2 itself
+leaves in a file it wrote.
+"""
+from __future__ import annotations
+
+import yaml
+
+__all__ = ['bag_metadata', 'serialized_metadata', 'ROSBAG2_VERSION', 'RECORD_NAME']
+
+ROSBAG2_VERSION = 9
+RECORD_NAME = 'rosbag2'
+
+
+def bag_metadata(file_name: str, topics: list[dict], start_ns: int, end_ns: int,
+                 ros_distro: str = 'jazzy') -> dict:
+    """The BagMetadata mapping.  ``topics``: one dict per channel with ``name``, ``type``
+    (``pkg/msg/Type``), ``offered_qos_profiles`` (the channel's YAML text),
+    ``type_description_hash`` and ``message_count``."""
+    count = sum(int(t['message_count']) for t in topics)
+    duration = max(int(end_ns) - int(start_ns), 0) if count else 0
+    start = int(start_ns) if count else 0
+    return {
+        'version': ROSBAG2_VERSION,
+        'storage_identifier': 'mcap',
+        'duration': {'nanoseconds': duration},
+        'starting_time': {'nanoseconds_since_epoch': start},
+        'message_count': count,
+        'topics_with_message_count': [{
+            'topic_metadata': {
+                'name': t['name'], 'type': t['type'], 'serialization_format': 'cdr',
+                'offered_qos_profiles': yaml.safe_load(t['offered_qos_profiles'] or '[]'),
+                'type_description_hash': t.get('type_description_hash', '')},
+            'message_count': int(t['message_count'])} for t in topics],
+        'compression_format': '',
+        'compression_mode': '',
+        'relative_file_paths': [file_name],
+        'files': [{'path': file_name, 'starting_time': {'nanoseconds_since_epoch': start},
+                   'duration': {'nanoseconds': duration}, 'message_count': count}],
+        'custom_data': None,
+        'ros_distro': ros_distro,
+    }
+
+
+def serialized_metadata(metadata: dict) -> str:
+    """The YAML text of the record (block style, keys in rosbag2's order)."""
+    return yaml.safe_dump(metadata, sort_keys=False, default_flow_style=False)
