@@ -30,11 +30,18 @@ def cmd_mcap(args) -> int:
                'git_revision': run.get('git_revision')}
         print_summary(out, args.json, width=24)
     elif args.action == 'export':
-        if not args.csv:
-            raise ParameterError('mcap export needs --csv DIR')
-        from .io.export import export_csv
-        paths = export_csv(rec, args.csv, args.topics)
-        print_summary({t: str(p) for t, p in paths.items()}, args.json, width=24)
+        if not (args.csv or args.las):
+            raise ParameterError('mcap export needs --csv DIR and/or --las FILE.las')
+        from .io.export import export_csv, export_las
+        out = {}
+        if args.csv:
+            out.update({t: str(p) for t, p in export_csv(rec, args.csv, args.topics).items()})
+        if args.las:
+            try:
+                out['las'] = str(export_las(rec, args.las))
+            except ValueError as exc:
+                raise ParameterError(f'{args.file}: {exc}') from None
+        print_summary(out, args.json, width=24)
     elif args.action == 'plot':
         if not args.out:
             raise ParameterError('mcap plot needs --out FILE.png')
@@ -108,7 +115,9 @@ def add_parsers(sub):
     s.add_argument('action', choices=['info', 'recover', 'export', 'plot'])
     s.add_argument('file', help='the .mcap recording')
     s.add_argument('output', nargs='?', help='recover: the repaired file to write')
-    s.add_argument('--csv', help='export: directory for one CSV per topic')
+    s.add_argument('--csv', help='export: directory for one CSV per topic (units in the '
+                   'header)')
+    s.add_argument('--las', help='export: LAS 2.0 drilling log of the scalar channels')
     s.add_argument('--topics', nargs='+', help='export: only these topics')
     s.add_argument('--out', help='plot: PNG file')
     s.add_argument('--json', action='store_true')

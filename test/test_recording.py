@@ -1,5 +1,6 @@
 """MCAP recording (issue 6) without ROS processes: rosbag2 layout, independent readers,
 exact resimulation, recovery, clear errors on bad files."""
+import csv
 import json
 import subprocess
 import sys
@@ -204,14 +205,39 @@ def test_export_csv_and_plot(tmp_path, run_file):
                           str(run_file), '--csv', str(tmp_path / 'csv'), '--json'],
                          capture_output=True, text=True, timeout=60, check=True)
     paths = json.loads(out.stdout)
-    rows = np.genfromtxt(paths['/bit/wrench'], delimiter=',', names=True, dtype=None,
-                         encoding=None)
+    with open(paths['/bit/wrench']) as f:
+        header = next(csv.reader(f))
+    assert header[0] == 'log_time [s]'
+    assert 'wrench.force.x [N]' in header and 'wrench.torque.x [N.m]' in header
+    rows = np.genfromtxt(paths['/bit/wrench'], delimiter=',', skip_header=1)
     decoded = list(open_recording(run_file).decoded(['/bit/wrench']))
     assert len(rows) == len(decoded)
-    assert np.allclose(rows['wrenchforcex'], [m.wrench.force.x for _, _, m in decoded],
-                       rtol=1e-15)
-    assert np.allclose(rows['log_time_s'], [t * 1e-9 for _, t, _ in decoded], atol=1e-9)
+    col = header.index('wrench.force.x [N]')
+    assert np.allclose(rows[:, col], [m.wrench.force.x for _, _, m in decoded], rtol=1e-15)
+    assert np.allclose(rows[:, 0], [t * 1e-9 for _, t, _ in decoded], atol=1e-9)
     png = tmp_path / 'run.png'
     subprocess.run([sys.executable, '-m', 'drill_twin.cli', 'mcap', 'plot', str(run_file),
                     '--out', str(png)], check=True, capture_output=True, timeout=60)
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+def test_las_export_reads_back_with_the_recorded_values(tmp_path, run_file):
+    """LAS 2.0 from `mcap export --las`, read back with lasio (an independent reader): the
+    curves, their SI units, and every value equal to the decoded messages."""
+    import lasio
+    path = tmp_path / 'run.las'
+    subprocess.run([sys.executable, '-m', 'drill_twin.cli', 'mcap', 'export', str(run_file),
+                    '--las', str(path)], check=True, capture_output=True, timeout=60)
+    las = lasio.read(path)
+    assert las.version['VERS'].value == 2.0
+    units = {c.mnemonic: c.unit for c in las.curves}
+    assert units['TIME'] == 's' and units['WOB'] == 'N' and units['TOB'] == 'N.m'
+    assert units['BITRS'] == 'rad/s' and units['TDSPD'] == 'rad/s'
+    rec = open_recording(run_file)
+    wrench = list(rec.decoded(['/bit/wrench']))
+    speed = list(rec.decoded(['/surface/top_drive_speed']))
+    assert len(las['TIME']) == len(wrench) == len(speed)
+    assert np.allclose(las['TIME'], [t * 1e-9 for _, t, _ in wrench], atol=1e-9)
+    assert np.allclose(las['WOB'], [m.wrench.force.x for _, _, m in wrench], rtol=1e-9)
+    assert np.allclose(las['TOB'], [m.wrench.torque.x for _, _, m in wrench], rtol=1e-9)
+    assert np.allclose(las['TDSPD'], [m.data for _, _, m in speed], rtol=1e-9)
