@@ -16,7 +16,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-__all__ = ['QoS', 'Topic', 'TOPICS', 'BY_NAME', 'SENSOR', 'SETPOINT', 'COMMAND', 'EVENTS',
+__all__ = ['QoS', 'Topic', 'TOPICS', 'JOINTS', 'COMMANDS_TOPIC', 'BY_NAME', 'SENSOR',
+           'SETPOINT', 'COMMAND', 'EVENTS',
            'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
            'FLOAT64', 'MEASUREMENTS', 'PARAMETER_EVENTS', 'parameter_event_fields',
            'parameter_value_fields', 'parameter_value', 'SURFACE_INPUTS', 'ESTIMATE_TOPICS']
@@ -43,6 +44,11 @@ EVENTS = QoS('reliable', 'volatile', 10)
 PARAMETER_EVENTS = QoS('reliable', 'volatile', 1000)
 
 FLOAT64 = 'std_msgs/msg/Float64'
+#: joint names of ``joint_states``: rotational (top drive, bit), axial (block, bit)
+JOINTS = ('top_drive', 'bit', 'block', 'bit_axial')
+#: forward-command-controller style commands: data = [top-drive speed rad/s(, block
+#: velocity m/s for a hoist)]
+COMMANDS_TOPIC = 'forward_velocity_controller/commands'
 
 
 @dataclass(frozen=True)
@@ -102,6 +108,28 @@ TOPICS = (
           _float('top_drive_speed_rad_s')),
     Topic('surface/torque', FLOAT64, SENSOR, 'measurement', _float('surface_torque_Nm')),
     Topic('surface/hook_load', FLOAT64, SENSOR, 'measurement', _float('hook_load_N')),
+    # the ros2_control vocabulary (stamped): rotational joints rad, rad/s, N m; axial m, m/s, N
+    Topic('joint_states', 'sensor_msgs/msg/JointState', SENSOR, 'measurement',
+          lambda m, st: {'header': {'stamp': st, 'frame_id': ''}, 'name': list(JOINTS),
+                         'position': [float(m[k]) for k in ('top_drive_angle_rad',
+                                                            'bit_angle_rad',
+                                                            'block_position_m', 'bit_depth_m')],
+                         'velocity': [float(m[k]) for k in ('top_drive_speed_rad_s',
+                                                            'bit_angular_speed_rad_s',
+                                                            'block_velocity_m_s',
+                                                            'bit_axial_speed_m_s')],
+                         'effort': [float(m[k]) for k in ('surface_torque_Nm',
+                                                          'torque_on_bit_Nm', 'hook_load_N',
+                                                          'weight_on_bit_N')]}),
+    # stamped forms of the surface scalars (frame 'surface': x along the hole axis, down)
+    Topic('surface/twist', 'geometry_msgs/msg/TwistStamped', SENSOR, 'measurement',
+          lambda m, st: {'header': {'stamp': st, 'frame_id': 'surface'}, 'twist': {
+              'linear': {'x': float(m['block_velocity_m_s'])},
+              'angular': {'x': float(m['top_drive_speed_rad_s'])}}}),
+    Topic('surface/wrench', 'geometry_msgs/msg/WrenchStamped', SENSOR, 'measurement',
+          lambda m, st: {'header': {'stamp': st, 'frame_id': 'surface'}, 'wrench': {
+              'force': {'x': float(m['hook_load_N'])},
+              'torque': {'x': float(m['surface_torque_Nm'])}}}),
     Topic('surface/block_velocity', FLOAT64, SENSOR, 'measurement',
           _float('block_velocity_m_s')),
     Topic('stability/spectral_abscissa', FLOAT64, SETPOINT, 'advisory'),

@@ -231,6 +231,8 @@ class DigitalTwin:
             'stick_slip_severity': severity,
             'delay_residual_rad': snap['delay_residual'],
             'bit_depth_m': snap['bit_position'] * s.depth_m,
+            'bit_angle_rad': snap['bit_angle'],
+            'top_drive_angle_rad': snap['top_drive_angle'],
             'bit_above_bottom_m': max(0.0, -snap['depth_of_cut'] * s.depth_m)
             if snap['contact'] < 0.5 else 0.0,
             'block_position_m': snap['block_position'] * s.depth_m,

@@ -136,7 +136,7 @@ RECORD_CHANNELS = ('tau', 'bit_axial_speed', 'bit_angular_speed', 'weight_on_bit
                    'surface_speed', 'bit_axial_perturbation', 'bit_angle_perturbation',
                    'top_axial_speed', 'stick_time', 'hook_load_change', 'bit_position',
                    'bit_angle', 'block_position', 'top_angle_perturbation', 'top_drive_speed',
-                   'motor_torque')
+                   'motor_torque', 'top_drive_angle')
 N_RECORD = len(RECORD_CHANNELS)
 # aux values of the right-hand side --------------------------------------------------------
 X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH, X_MOTOR = range(10)
@@ -727,6 +727,8 @@ def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th,
     row[19] = phb
     row[20] = top.upsilon_o * tau + x[d + 2]
     row[21] = x[d]
+    # total angle of the top drive: the driven top node, or the prescribed motor angle
+    row[24] = top.omega_o * tau + (x[p0] if nt > 1 and top.drive_node > 0.0 else x[d])
 
 
 @njit(cache=True, nogil=True)

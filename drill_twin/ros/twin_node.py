@@ -35,8 +35,8 @@ import time
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from std_msgs.msg import Float64
-from std_srvs.srv import Trigger
+from std_msgs.msg import Float64, Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
 
 from .. import topics as T
 from ..io.run_recorder import TwinRecorder
@@ -95,13 +95,13 @@ class TwinNode(Node):
             # a publish period of simulated time is a whole number of integration steps, so that
             # samples (and their stamps) are evenly spaced
             sample_s = (1.0 if self.fast else g('real_time_factor')) / g('publish_rate_hz')
-            at_rest = self.timeline is not None and self.timeline.start == 'rest'
-            self.twin = DigitalTwin(scenario, drive_time_constant_s=g('drive_time_constant_s'),
-                                    max_surface_speed_rad_s=g('max_surface_speed_rad_s'),
-                                    time_step_s=aligned_step(scenario.time_step
-                                                             * scenario.time_unit_s, sample_s),
-                                    start_above_bottom_m=self.timeline.bit_above_bottom_m
-                                    if at_rest else None)
+            self._twin_args = dict(
+                drive_time_constant_s=g('drive_time_constant_s'),
+                max_surface_speed_rad_s=g('max_surface_speed_rad_s'),
+                time_step_s=aligned_step(scenario.time_step * scenario.time_unit_s, sample_s),
+                start_above_bottom_m=self.timeline.bit_above_bottom_m
+                if self.timeline is not None and self.timeline.start == 'rest' else None)
+            self.twin = DigitalTwin(scenario, **self._twin_args)
             self.twin.warm_up()  # compile/run the kernels now, not in the first tick
         self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
         self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
@@ -118,8 +118,13 @@ class TwinNode(Node):
         self.create_subscription(Float64, 'surface_speed_command', self._on_command, COMMAND_QOS)
         self.create_subscription(Float64, 'block_velocity_setpoint', self._on_block,
                                  SETPOINT_QOS)
+        self.create_subscription(Float64MultiArray, T.COMMANDS_TOPIC, self._on_commands,
+                                 SETPOINT_QOS)
         self.driller = None
+        self.paused = False
         self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
         roles = ('measurement', 'advisory', 'diagnostics') + (('clock',) if self.fast else ())
         self.pub = {t.name: (message_class(t.type), self.create_publisher(
             message_class(t.type), t.name, qos_profile(t.qos)))
@@ -196,6 +201,60 @@ class TwinNode(Node):
         except SetpointError as exc:
             self.health.add('rejected', time.monotonic())
             self.get_logger().warning(f'rejected block_velocity_setpoint: {exc}')
+
+    def _on_commands(self, msg):
+        """Forward-command-controller style: ``data = [top-drive speed rad/s]`` or
+        ``[top-drive speed rad/s, block velocity m/s]`` (operator set-points)."""
+        data = list(msg.data)
+        if len(data) not in (1, 2):
+            self.health.add('rejected', time.monotonic())
+            self.get_logger().warning(f'rejected {T.COMMANDS_TOPIC}: {len(data)} values, '
+                                      'expected [top_drive speed] or [top_drive speed, '
+                                      'block velocity]')
+            return
+        self._operator_takes_over(T.COMMANDS_TOPIC)
+        self._operator_speed(data[0])
+        if len(data) == 2:
+            self._apply_block(data[1])
+
+    # --- services: reset, pause -----------------------------------------------------------
+    def _on_reset(self, request, response):
+        """Back to the configured initial state (a new twin from the same scenario)."""
+        if self.recorder is not None:
+            response.success = False
+            response.message = ('reset refused while recording: the recording\'s simulated '
+                                'log time would restart; stop the node to end the file')
+            return response
+        self.twin = DigitalTwin(self.twin.scenario, **self._twin_args)
+        self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint,
+                                    self._param('command_timeout_s'))
+        self.pacer = Pacer(self._param('real_time_factor'), 1.0 / self._param('publish_rate_hz'),
+                           self.twin.step_s)
+        self.blow_up = ''
+        self._last_measurements = None
+        if self.timeline is not None:
+            self._start_scenario()
+        response.success = True
+        response.message = (f'reset to t = 0 s, surface speed '
+                            f'{self.twin.surface_speed_setpoint:g} rad/s')
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_pause(self, request, response):
+        """``data: true`` holds simulated time (nothing is published); ``false`` resumes from
+        where it held, the pacing re-anchored to now."""
+        if request.data == self.paused:
+            response.success = True
+            response.message = f"already {'paused' if self.paused else 'running'}"
+            return response
+        self.paused = bool(request.data)
+        if not self.paused and self.pacer.started:
+            self.pacer.anchor(time.monotonic(), self.twin.time_s, self._ros_now())
+        response.success = True
+        response.message = (f"{'paused' if self.paused else 'running'} at t = "
+                            f'{self.twin.time_s:.3f} s')
+        self.get_logger().info(response.message)
+        return response
 
     # --- operations scenarios ----------------------------------------------------------
     def _start_scenario(self):
@@ -292,7 +351,7 @@ class TwinNode(Node):
 
     # --- real-time loop ------------------------------------------------------------------
     def _tick(self):
-        if self.blow_up:
+        if self.blow_up or self.paused:
             return
         wall = time.monotonic()
         back = self.arbiter.check(wall)
