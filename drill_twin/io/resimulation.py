@@ -33,8 +33,23 @@ def _leaves(fields: dict, prefix=''):
             continue  # stamps are ROS time in a real-time run, not compared
         if isinstance(value, dict):
             yield from _leaves(value, f'{prefix}{key}.')
-        else:
+        elif isinstance(value, (list, tuple)):   # e.g. JointState arrays; names are labels
+            for i, item in enumerate(value):
+                if isinstance(item, dict):
+                    yield from _leaves(item, f'{prefix}{key}[{i}].')
+                elif not isinstance(item, str):
+                    yield f'{prefix}{key}[{i}]', float(item)
+        elif not isinstance(value, str):
             yield f'{prefix}{key}', float(value)
+
+
+def _pick(flat: dict, key: str):
+    """A leaf of :func:`~drill_twin.io.export.flatten`'s output by a :func:`_leaves` key
+    (``position[2]`` is element 2 of the array field ``position``)."""
+    if key in flat:
+        return flat[key]
+    name, _, index = key.rpartition('[')
+    return flat[name][int(index.rstrip(']'))]
 
 
 def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
@@ -104,7 +119,8 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
         if topic not in expected:
             raise RecordingError(f'{recording.path}: {topic} before the first {first}')
         got = flatten(msg)
-        diff = max((abs(v - float(got[k])) for k, v in _leaves(expected[topic])), default=0.0)
+        diff = max((abs(v - float(_pick(got, k))) for k, v in _leaves(expected[topic])),
+                   default=0.0)
         entry = report[topic]
         entry['messages'] += 1
         entry['max_abs_difference'] = max(entry['max_abs_difference'], diff)
