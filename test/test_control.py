@@ -117,7 +117,7 @@ def _travelling_parts(traj, model, scales, z_si, node):
     phi = traj.state[:, 2 * na: 2 * na + nt]
     om = traj.state[:, 2 * na + nt: 2 * na + 2 * nt]
     torque = (k * (phi[:, node] - phi[:, node + 1]) + c * (om[:, node] - om[:, node + 1]))
-    z = z_si * scales.time_s / scales.torque_Nm
+    z = z_si / (scales.time_s * scales.torque_Nm)       # N m s/rad -> C t*
     w = 0.5 * (om[:, node] + om[:, node + 1])
     return 0.5 * (w - torque / z), 0.5 * (w + torque / z)
 
