@@ -505,7 +505,7 @@ def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, g
 
 @njit(cache=True, nogil=True)
 def _commit(tau0, x0, f0, tau1, x1, f1, law, top, T, surf, geom, th, thm, counters, na, nt,
-            start):
+            start, w):
     """After an accepted (sub)step: the blades write the surface they swept, and the bit
     velocities go into the time history (model III).  ``start[4] == 1``: the step began
     at an instantaneous perturbation; the rock it swept is written from the bit motion
@@ -519,17 +519,16 @@ def _commit(tau0, x0, f0, tau1, x1, f1, law, top, T, surf, geom, th, thm, counte
     counters[C_WRITES] += write_step(surf, geom, law.offsets, tau0, tau1, u0, u1, p0, p1,
                                      v0, v1, o0, o1)
     if top.z_a > 0.0 or top.z_t > 0.0 or top.t_delay > 0.0:
-        _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt)
+        _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, w)
 
 
 @njit(cache=True, nogil=True)
-def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt):
+def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, w):
     """Append the delayed signals (time_history.SIGNALS) at the end of a step: the
     surface torque's slope is that of the first element's torque, from the state slope
     ``f1``."""
     ib = 2 * na + 2 * nt - 1 if nt > 0 else 2 * na + 2 * nt + 1
-    values = np.zeros(N_SIGNALS)
-    slopes = np.zeros(N_SIGNALS)
+    values, slopes = w.values, w.slopes
     values[S_BIT_AXIAL_SPEED], slopes[S_BIT_AXIAL_SPEED] = v1, f1[2 * na - 1]
     values[S_BIT_ANGULAR_SPEED], slopes[S_BIT_ANGULAR_SPEED] = o1, f1[ib]
     if top.drive_pi > 0.0 and nt > 1:
@@ -644,7 +643,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
                              th, thm, w.k4, w, w.g)
         if gmin >= 0.0 or sub == 19:
             _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, T, surf, geom, th,
-                    thm, counters, na, nt, start)
+                    thm, counters, na, nt, start, w)
             if mode[MD_ANG] == ANG_STICK:
                 tau_arr[1] += remaining
             for i in range(n):
@@ -661,7 +660,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
         _switching_at(tau + dt, w.x_end, mode, law, top, inp, A, T, surf, geom, th, thm,
                       w.k4, w, w.g)
         _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, T, surf, geom, th, thm,
-                counters, na, nt, start)
+                counters, na, nt, start, w)
         for i in range(n):
             x[i] = w.x_end[i]
         if mode[MD_ANG] == ANG_STICK:
