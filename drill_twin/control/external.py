@@ -11,7 +11,7 @@ through: the drive's own loop is the stiff PI.
 from __future__ import annotations
 
 from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario
+from ..physics.scenario import load_scenario, read_config, resolve_config
 from ..physics.soft_torque import SoftTorqueController
 from ..physics.top_drive import CONTROLLERS, TopDrive
 
@@ -23,9 +23,9 @@ def mode_drive(mode: str, config: str, overrides=()) -> TopDrive:
     the configuration's operating point; takes seconds)."""
     if mode not in CONTROLLERS:
         raise ParameterError(f'mode must be one of {", ".join(CONTROLLERS)}, got {mode!r}')
-    if not load_scenario(config, list(overrides)).is_si:
+    if read_config(resolve_config(config)).get('units') != 'si':
         raise ParameterError(f'the top-drive controller needs an SI configuration (units: si);'
-                             f' {config} is dimensionless')
+                             f' {config} is not one')
     sc = load_scenario(config, list(overrides) + ['model.top_drive=motor',
                                                   f'drive.controller={mode}'])
     return sc.model.top_drive

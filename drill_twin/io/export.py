@@ -16,7 +16,8 @@ import numpy as np
 
 from .mcap_reader import Recording
 
-__all__ = ['flatten', 'export_csv', 'export_las', 'topic_series', 'LAS_CURVES', 'field_unit']
+__all__ = ['flatten', 'export_csv', 'export_las', 'topic_series', 'LAS_CURVES', 'field_unit',
+           'field_value']
 
 #: LAS curves: mnemonic, unit, description, topic, dotted field
 LAS_CURVES = (
@@ -85,6 +86,13 @@ def export_csv(recording: Recording, out_dir, topics=None) -> dict:
     return paths
 
 
+def field_value(msg, dotted: str):
+    """The field ``a.b.c`` of a decoded message."""
+    for part in dotted.split('.'):
+        msg = getattr(msg, part)
+    return msg
+
+
 def export_las(recording: Recording, path, well: str = 'drill_twin') -> Path:
     """Write the LAS 2.0 log of a recording (module docstring); returns the path."""
     import lasio
@@ -96,10 +104,7 @@ def export_las(recording: Recording, path, well: str = 'drill_twin') -> Path:
             continue
         row = rows.setdefault(t_ns, {})
         for mnem, _, _, _, field in curves:
-            value = msg
-            for part in field.split('.'):
-                value = getattr(value, part)
-            row[mnem] = float(value)
+            row[mnem] = float(field_value(msg, field))
     if not rows:
         raise ValueError("the recording has none of the twin's measurement topics")
     times = np.array(sorted(rows))
@@ -130,10 +135,7 @@ def topic_series(recording: Recording, topic: str, fields) -> dict:
     for _, t_ns, msg in recording.decoded([topic]):
         times.append(t_ns * 1e-9)
         for f in fields:
-            value = msg
-            for part in f.split('.'):
-                value = getattr(value, part)
-            cols[f].append(float(value))
+            cols[f].append(float(field_value(msg, f)))
     out = {'time_s': np.asarray(times)}
     out.update({f: np.asarray(v) for f, v in cols.items()})
     return out

@@ -31,7 +31,7 @@ from mcap.writer import CompressionType, Writer
 
 from .cdr import decoder_for
 from .mcap_writer import PROFILE
-from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata
+from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata, topic_entry
 
 __all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
            'check_decodable', 'RUN_METADATA']
@@ -394,9 +394,6 @@ def _recovered_metadata(file_name, schemas, channels, items) -> dict:
     for m in items:
         if isinstance(m, Message):
             counts[m.channel_id] = counts.get(m.channel_id, 0) + 1
-    topics = [{'name': c.topic, 'type': schemas[c.schema_id].name,
-               'offered_qos_profiles': c.metadata.get('offered_qos_profiles', '[]'),
-               'type_description_hash': c.metadata.get('topic_type_hash', ''),
-               'message_count': counts.get(k, 0)} for k, c in channels.items()
-              if c.schema_id in schemas]
+    topics = [topic_entry(c, schemas[c.schema_id].name, counts.get(k, 0))
+              for k, c in channels.items() if c.schema_id in schemas]
     return bag_metadata(file_name, topics, min(times, default=0), max(times, default=0))

@@ -65,7 +65,7 @@ from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .cdr import encoder_for
 from .msg_definitions import normalize_type, schema_text, type_hash
-from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata
+from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata, topic_entry
 
 __all__ = ['McapRecorder', 'qos_yaml', 'PROFILE', 'MAGIC']
 
@@ -285,10 +285,7 @@ class McapRecorder:
     def bag_metadata(self) -> dict:
         """rosbag2's metadata of what was written so far (:mod:`.rosbag2_metadata`)."""
         schemas = {s.id: s.name for s in self._schemas.values()}
-        topics = [{'name': c.topic, 'type': schemas[c.schema_id],
-                   'offered_qos_profiles': c.metadata['offered_qos_profiles'],
-                   'type_description_hash': c.metadata['topic_type_hash'],
-                   'message_count': self._counts.get(c.id, 0)}
+        topics = [topic_entry(c, schemas[c.schema_id], self._counts.get(c.id, 0))
                   for c in self._channels.values()]
         return bag_metadata(self.path.name, topics, self._start_time or 0,
                             self._end_time or 0)

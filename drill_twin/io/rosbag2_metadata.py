@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import yaml
 
-__all__ = ['bag_metadata', 'serialized_metadata', 'ROSBAG2_VERSION', 'RECORD_NAME']
+__all__ = ['bag_metadata', 'serialized_metadata', 'topic_entry', 'ROSBAG2_VERSION',
+           'RECORD_NAME']
 
 ROSBAG2_VERSION = 9
 RECORD_NAME = 'rosbag2'
@@ -48,6 +49,15 @@ def bag_metadata(file_name: str, topics: list[dict], start_ns: int, end_ns: int,
         'custom_data': None,
         'ros_distro': ros_distro,
     }
+
+
+def topic_entry(channel, type_name: str, message_count: int) -> dict:
+    """The :func:`bag_metadata` entry of an MCAP channel record (its QoS and type-hash
+    metadata, '' where the file has none)."""
+    return {'name': channel.topic, 'type': type_name,
+            'offered_qos_profiles': channel.metadata.get('offered_qos_profiles', '[]'),
+            'type_description_hash': channel.metadata.get('topic_type_hash', ''),
+            'message_count': int(message_count)}
 
 
 def serialized_metadata(metadata: dict) -> str:

@@ -39,7 +39,7 @@ from .models import (
     rgd_k,
 )
 from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, StringSection
-from .schema import ConfigError, validate
+from .schema import DRIVE, ConfigError, validate
 from .top_drive import DriveGains, TopDrive, mode_gains
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
@@ -178,26 +178,23 @@ def _system_from(cfg: dict) -> DrillStringSI:
 
 def _top_drive(cfg: dict, system, groups: BitRockGroups):
     """The :class:`~drill_twin.physics.top_drive.TopDrive` of ``drive`` (model.top_drive:
-    motor); a ``stability_tuned`` controller gets its gains from the stability module."""
-    d = dict(cfg.get('drive') or {})
-    J = d.get('motor_inertia_kgm2') or system.drive_inertia_kgm2
-    mode = d.get('controller', 'stiff_pi')
-    gains = mode_gains(mode, system, J, d.get('speed_loop_bandwidth_rad_s', 30.0))
-    drive = TopDrive(mode, J, d.get('torque_limit_Nm', 50.0e3),
-                     d.get('speed_loop_bandwidth_rad_s', 30.0), d.get('sensor_delay_s', 0.0),
-                     d.get('torque_filter_s', 20.0), gains)
-    explicit = {k: d.get(k) for k in ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad',
-                                      'torque_feedback_rad_s_Nm')}
-    if mode == 'stability_tuned' and not any(v is not None for v in explicit.values()):
+    motor; absent keys take the schema's defaults); a ``stability_tuned`` controller gets
+    its gains from the stability module, explicit gains replace the mode's."""
+    d = {k.name: k.default for k in DRIVE.keys}
+    d.update({k: v for k, v in (cfg.get('drive') or {}).items() if v is not None})
+    J = d['motor_inertia_kgm2'] or system.drive_inertia_kgm2
+    mode, bandwidth = d['controller'], d['speed_loop_bandwidth_rad_s']
+    drive = TopDrive(mode, J, d['torque_limit_Nm'], bandwidth, d['sensor_delay_s'],
+                     d['torque_filter_s'], mode_gains(mode, system, J, bandwidth))
+    explicit = ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad', 'torque_feedback_rad_s_Nm')
+    if mode == 'stability_tuned' and all(d[k] is None for k in explicit):
         # the stability module sits above physics: imported here, at use
         from ..control.tuning import stability_tuned_drive
         drive = stability_tuned_drive(cfg, drive)
-    return drive.with_gains(DriveGains(
-        explicit['proportional_gain_Nms_rad'] or drive.gains.proportional_Nms_rad,
-        drive.gains.integral_Nm_rad if explicit['integral_gain_Nm_rad'] is None
-        else explicit['integral_gain_Nm_rad'],
-        drive.gains.torque_feedback_rad_s_Nm if explicit['torque_feedback_rad_s_Nm'] is None
-        else explicit['torque_feedback_rad_s_Nm']))
+    g = drive.gains
+    mode_values = (g.proportional_Nms_rad, g.integral_Nm_rad, g.torque_feedback_rad_s_Nm)
+    return drive.with_gains(DriveGains(*(v if d[k] is None else d[k]
+                                         for k, v in zip(explicit, mode_values))))
 
 
 def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, drive=None):

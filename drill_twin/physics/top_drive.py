@@ -40,6 +40,7 @@ import math
 from dataclasses import dataclass, replace
 
 from .parameters import DrillStringSI, ParameterError
+from .soft_torque import soft_torque_si
 
 __all__ = ['CONTROLLERS', 'DriveGains', 'TopDrive', 'pipe_torsional_impedance',
            'mode_gains', 'drive_impedance', 'reflection_coefficient', 'kernel_drive']
@@ -123,10 +124,8 @@ def mode_gains(controller: str, system: DrillStringSI, motor_inertia_kgm2: float
         g = 1.0 / pipe_torsional_impedance(system) if controller == 'z_torque' else 0.0
         return DriveGains(2.0 * J * bandwidth_rad_s, J * bandwidth_rad_s ** 2, g)
     if controller in ('soft_torque', 'stability_tuned'):
-        s = system.scales()
-        k = J / s.time_s ** 2
-        xi = math.sqrt(s.inertia_kgm2 / (2.0 * J))
-        return DriveGains(2.0 * xi * math.sqrt(k * J), k, 0.0)
+        st = soft_torque_si(system, J)
+        return DriveGains(st['damping'], st['stiffness'], 0.0)
     raise ParameterError(f'drive controller must be one of {", ".join(CONTROLLERS)}, '
                          f'got {controller!r}')
 

@@ -103,15 +103,12 @@ class TwinNode(Node):
                 if self.timeline is not None and self.timeline.start == 'rest' else None)
             self.twin = DigitalTwin(scenario, **self._twin_args)
             self.twin.warm_up()  # compile/run the kernels now, not in the first tick
-        self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
-        self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
+        self._start_run()
         self.health = EventWindow(HEALTH_WINDOW_S)
-        self.blow_up = ''
         self.advisory = None
         self.advisor = None
         self._advice_due = 0.0
         self._overflows_seen = 0
-        self._last_measurements = None
 
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
         self.create_subscription(Float64, 'hook_load_setpoint', self._on_hook_load, SETPOINT_QOS)
@@ -154,6 +151,15 @@ class TwinNode(Node):
 
     def _param(self, name):
         return self.get_parameter(name).value
+
+    def _start_run(self):
+        """Speed arbitration and pacing of a run of ``self.twin`` from its start (at
+        start-up and on ``~/reset``)."""
+        g = self._param
+        self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
+        self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
+        self.blow_up = ''
+        self._last_measurements = None
 
     def _tick_period(self) -> float:
         return 0.0 if self.fast else 1.0 / self._param('publish_rate_hz')
@@ -226,12 +232,7 @@ class TwinNode(Node):
                                 'log time would restart; stop the node to end the file')
             return response
         self.twin = DigitalTwin(self.twin.scenario, **self._twin_args)
-        self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint,
-                                    self._param('command_timeout_s'))
-        self.pacer = Pacer(self._param('real_time_factor'), 1.0 / self._param('publish_rate_hz'),
-                           self.twin.step_s)
-        self.blow_up = ''
-        self._last_measurements = None
+        self._start_run()
         if self.timeline is not None:
             self._start_scenario()
         response.success = True
