@@ -119,7 +119,7 @@ def test_twin_and_controller_in_two_processes(tmp_path):
         assert 'Traceback' not in out, out[-2000:]
     rec = open_recording(record)  # complete (summary + footer), no recovery needed
     assert rec.message_counts['/surface_speed_command'] > 100
-    assert rec.message_counts['/bit/velocity'] > 200
+    assert rec.message_counts['/bit/velocity'] >= len(got['bit'])
 
 
 @pytest.mark.slow
@@ -137,10 +137,14 @@ def test_a_signal_ends_both_nodes_fast_with_the_advisor_on(tmp_path, sig):
     commands = []
     probe.node.create_subscription(Float64, 'surface_speed_command',
                                    lambda m: commands.append(m.data), COMMAND_QOS)
+    bits = []
+    probe.node.create_subscription(TwistStamped, 'bit/velocity', bits.append,
+                                   qos_profile_sensor_data)
     pub = probe.node.create_publisher(Float64, 'surface_speed_setpoint', SETPOINT_QOS)
     pub.publish(Float64(data=12.57))  # the controller commands once it has a set-point
     try:
-        assert probe.spin_until(lambda: advisories and len(commands) > 20, 60)
+        assert probe.spin_until(
+            lambda: advisories and len(commands) > 20 and len(bits) > 100, 60)
         workers = _advisor_workers(twin.pid)
         assert len(workers) == 1
         pub.publish(Float64(data=13.0))  # a new set-point: the worker computes again now
@@ -160,8 +164,8 @@ def test_a_signal_ends_both_nodes_fast_with_the_advisor_on(tmp_path, sig):
         assert proc.returncode == 0 and 'Traceback' not in out, out[-2000:]
         assert seconds < 1.0, (seconds, out[-500:])
     assert not [pid for pid in workers if Path(f'/proc/{pid}').exists()]
-    rec = open_recording(record)
-    assert rec.message_counts['/bit/velocity'] > 100
+    rec = open_recording(record)  # all that the probe saw published is in the file
+    assert rec.message_counts['/bit/velocity'] >= len(bits) > 100
     assert rec.message_counts['/stability/spectral_abscissa'] >= 1
     last = {}
     for topic, t, _ in rec.messages():  # log times never go back within a channel
