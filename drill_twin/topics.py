@@ -132,6 +132,15 @@ TOPICS = (
               'torque': {'x': float(m['surface_torque_Nm'])}}}),
     Topic('surface/block_velocity', FLOAT64, SENSOR, 'measurement',
           _float('block_velocity_m_s')),
+    # stamped forms of the bit's scalars (no standard stamped scalar exists: a Vector3Stamped
+    # per physical group, each component named in the README)
+    Topic('bit/penetration', 'geometry_msgs/msg/Vector3Stamped', SENSOR, 'measurement',
+          lambda m, st: {'header': _header(st), 'vector': {
+              'x': float(m['depth_of_cut_m']), 'y': float(m['bit_above_bottom_m']),
+              'z': float(m['rate_of_penetration_m_s'])}}),
+    Topic('bit/stick_slip', 'geometry_msgs/msg/Vector3Stamped', SENSOR, 'measurement',
+          lambda m, st: {'header': _header(st), 'vector': {
+              'x': float(m['stick_slip_severity']), 'y': 1.0 if m['stuck'] else 0.0}}),
     Topic('stability/spectral_abscissa', FLOAT64, SETPOINT, 'advisory'),
     Topic('stability/critical_surface_speed', FLOAT64, SETPOINT, 'advisory'),
     Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', EVENTS, 'diagnostics'),

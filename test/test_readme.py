@@ -39,6 +39,12 @@ NOT_HERE = {
                                   "modes' physics is asserted by test_control.py)",
     'top_drive_controller ': 'every mode run over DDS against twin_node by '
                              'test_control_node.py',
+    'ros2 run drill_twin twin_node --ros-args -p autostart:=false':
+        'a managed start: the transitions that follow are run through the lifecycle '
+        'services by test_lifecycle.py',
+    'ros2 lifecycle ': 'needs the ros2 CLI (not on PyPI); the same transitions through the '
+                       'lifecycle services are run by test_lifecycle.py; tried by hand '
+                       'against a colcon build of ros2/ros2cli jazzy',
     'ros2 topic pub ': 'needs the ros2 CLI (not on PyPI); tried by hand against a colcon '
                        'build of ros2/ros2cli jazzy',
 }

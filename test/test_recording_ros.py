@@ -210,7 +210,7 @@ def test_sigterm_finishes_the_file(tmp_path):
                              'benchmark_fem', '--duration', '100000', '--out', str(path)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and (not path.exists() or path.stat().st_size < 50_000):
+    while time.monotonic() < deadline and (not path.exists() or path.stat().st_size < 150_000):
         assert proc.poll() is None, proc.stderr.read()
         time.sleep(0.05)  # polling the file size (a condition with a deadline)
     proc.send_signal(signal.SIGTERM)

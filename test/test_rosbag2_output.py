@@ -16,7 +16,7 @@ import pytest
 import yaml
 from mcap.reader import make_reader
 
-from drill_twin.io.mcap_reader import recover
+from drill_twin.io.mcap_reader import open_recording, recover
 from drill_twin.io.msg_definitions import find_msg_file, schema_text
 from drill_twin.io.run_recorder import record_run
 from drill_twin.physics.scenario import load_scenario
@@ -73,6 +73,27 @@ def test_metadata_record_parses_as_rosbag2_bag_metadata(bag):
             channel.metadata['offered_qos_profiles'])
         assert tm['type_description_hash'] == channel.metadata['topic_type_hash'] == \
             _installed_hash(schema.name)
+
+
+def test_a_path_without_suffix_is_a_rosbag2_bag_directory(tmp_path):
+    """``DIR/DIR_0.mcap`` + ``DIR/metadata.yaml`` (rosbag2_storage's MetadataIo layout: the
+    BagMetadata under ``rosbag2_bagfile_information``, the same mapping as the record in the
+    file); readers take the directory; an existing directory is refused, not overwritten."""
+    directory = tmp_path / 'run_bag'
+    record_run(load_scenario('benchmark_fem'), directory, 1.0, 100.0, config='benchmark_fem')
+    assert sorted(p.name for p in directory.iterdir()) == ['metadata.yaml', 'run_bag_0.mcap']
+    info = yaml.safe_load((directory / 'metadata.yaml').read_text())
+    with open(directory / 'run_bag_0.mcap', 'rb') as f:
+        records = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert info == {'rosbag2_bagfile_information': yaml.safe_load(
+        records['rosbag2']['serialized_metadata'])}
+    meta = info['rosbag2_bagfile_information']
+    assert meta['relative_file_paths'] == ['run_bag_0.mcap']
+    recording = open_recording(directory)
+    assert sum(recording.message_counts.values()) == meta['message_count'] > 0
+    with pytest.raises(OSError, match='exists'):
+        record_run(load_scenario('benchmark_fem'), directory, 1.0, 100.0)
+    assert yaml.safe_load((directory / 'metadata.yaml').read_text()) == info
 
 
 def test_recovered_file_gets_a_metadata_record_of_what_was_recovered(bag, tmp_path):

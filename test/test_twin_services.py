@@ -13,6 +13,7 @@ from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from std_srvs.srv import SetBool, Trigger  # noqa: E402
 
 from drill_twin import topics as T  # noqa: E402
+from drill_twin.io.mcap_reader import open_recording  # noqa: E402
 from drill_twin.ros.twin_node import SETPOINT_QOS, TwinNode  # noqa: E402
 
 
@@ -102,3 +103,36 @@ def test_forward_command_style_commands_set_the_speed(rig):
     pub.publish(Float64MultiArray(data=[1.0, 2.0, 3.0]))   # wrong length: rejected, kept
     pub.publish(Float64MultiArray(data=[float('nan')]))   # not finite: rejected, kept
     assert not rig.spin_until(lambda: node.twin.surface_speed_setpoint != 14.0, 0.5)
+
+
+def test_stamped_bit_scalars_equal_the_float64_topics_of_the_same_tick(rig, tmp_path):
+    """Every measurement has a stamped form: the recording (one log time per tick) holds
+    bit/penetration and bit/stick_slip beside the Float64 / Bool topics they restate."""
+    path = tmp_path / 'run.mcap'
+    node = twin(rig, record_path=str(path))
+    rig.publisher('surface_speed_setpoint').publish(Float64(data=4.0))  # slow: sticks
+    assert rig.spin_until(lambda: node.twin.time_s > 15.0, 60)
+    rig.nodes.remove(node)
+    rig.ex.remove_node(node)
+    node.destroy_node()
+    ticks = {}
+    for topic, t, msg in open_recording(path).decoded():
+        ticks.setdefault(t, {})[topic] = msg
+    compared = 0
+    for tick in ticks.values():
+        if '/bit/penetration' not in tick:
+            continue
+        pen, ss = tick['/bit/penetration'], tick['/bit/stick_slip']
+        assert pen.header.frame_id == ss.header.frame_id == 'bit'
+        assert (pen.vector.x, pen.vector.y, pen.vector.z) == (
+            tick['/bit/depth_of_cut'].data, tick['/bit/height_above_bottom'].data,
+            tick['/bit/rate_of_penetration'].data)
+        assert (ss.vector.x, ss.vector.y) == (tick['/bit/stick_slip_severity'].data,
+                                              float(tick['/bit/stuck'].data))
+        stamps = [(m.header.stamp.sec, m.header.stamp.nanosec)
+                  for m in (pen, ss, tick['/bit/velocity'])]
+        assert stamps[0] == stamps[1] == stamps[2]
+        compared += 1
+    assert compared > 100
+    assert any(t['/bit/stick_slip'].vector.y == 1.0 for t in ticks.values()
+               if '/bit/stick_slip' in t)   # the stuck flag is carried

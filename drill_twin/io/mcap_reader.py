@@ -31,7 +31,7 @@ from mcap.writer import CompressionType, Writer
 
 from .cdr import decoder_for
 from .mcap_writer import PROFILE
-from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata, topic_entry
+from .rosbag2_metadata import RECORD_NAME, bag_file, bag_metadata, serialized_metadata, topic_entry
 
 __all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
            'check_decodable', 'RUN_METADATA']
@@ -224,8 +224,11 @@ def _check_channel(path, channel, schema):
 
 
 def open_recording(path) -> Recording:
-    """Open and validate a recording (ROS 2 profile, CDR messages, ros2msg schemas)."""
+    """Open and validate a recording (ROS 2 profile, CDR messages, ros2msg schemas): an
+    ``.mcap`` file or a rosbag2 bag directory."""
     path = Path(path)
+    if path.is_dir():
+        path = bag_file(path)
     if not path.is_file():
         raise RecordingError(f'{path}: no such file')
     with open(path, 'rb') as f:

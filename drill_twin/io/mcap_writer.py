@@ -36,6 +36,7 @@ recorder node's ROS time for ``mcap_recorder`` (simulated when it runs with
 """
 from __future__ import annotations
 
+import errno
 import struct
 import tempfile
 import threading
@@ -65,7 +66,14 @@ from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .cdr import encoder_for
 from .msg_definitions import normalize_type, schema_text, type_hash
-from .rosbag2_metadata import RECORD_NAME, bag_metadata, serialized_metadata, topic_entry
+from .rosbag2_metadata import (
+    RECORD_NAME,
+    bag_directory,
+    bag_metadata,
+    serialized_metadata,
+    topic_entry,
+    write_bag_metadata_file,
+)
 
 __all__ = ['McapRecorder', 'qos_yaml', 'PROFILE', 'MAGIC']
 
@@ -126,7 +134,9 @@ class McapRecorder:
     Parameters
     ----------
     path : str or Path
-        Output file (parent directories are created).
+        Output file (parent directories are created); a path without a suffix is a
+        rosbag2 bag directory: ``DIR/DIR_0.mcap``, and ``DIR/metadata.yaml`` written at
+        close (what ``ros2 bag record -o DIR -s mcap`` leaves).
     chunk_period_s : float
         Longest span of log time, or of wall time, that one chunk holds [s]:
         the most a SIGKILL can lose.
@@ -140,10 +150,15 @@ class McapRecorder:
                  library: str = 'drill_twin'):
         if not chunk_period_s > 0:
             raise ParameterError(f'chunk_period_s must be > 0, got {chunk_period_s}')
-        self.path = Path(path)
+        self.bag_directory = bag_directory(path)
+        self.path = Path(path) if self.bag_directory is None else \
+            self.bag_directory / f'{self.bag_directory.name}_0.mcap'
         self.chunk_period_s = float(chunk_period_s)
         self._compression, self._compress = _compressor(compression)
         try:
+            if self.bag_directory is not None and self.bag_directory.exists():
+                raise FileExistsError(errno.EEXIST, 'the bag directory exists (rosbag2 '
+                                      'does not record into one either)')
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._file = open(self.path, 'wb')  # noqa: SIM115 - closed in close()
         except OSError as exc:
@@ -304,6 +319,8 @@ class McapRecorder:
             self._write_summary()
             self._file.close()
             self._chunk_indexes.close()
+            if self.bag_directory is not None:
+                write_bag_metadata_file(self.bag_directory, self.bag_metadata())
 
     def _write_summary(self):
         start = self._file.tell()

@@ -12,13 +12,18 @@ leaves in a file it wrote.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import yaml
 
 __all__ = ['bag_metadata', 'serialized_metadata', 'topic_entry', 'ROSBAG2_VERSION',
-           'RECORD_NAME']
+           'RECORD_NAME', 'METADATA_FILE', 'bag_directory', 'write_bag_metadata_file',
+           'bag_file']
 
 ROSBAG2_VERSION = 9
 RECORD_NAME = 'rosbag2'
+#: a bag directory's metadata file (``rosbag2_storage::MetadataIo``)
+METADATA_FILE = 'metadata.yaml'
 
 
 def bag_metadata(file_name: str, topics: list[dict], start_ns: int, end_ns: int,
@@ -63,3 +68,32 @@ def topic_entry(channel, type_name: str, message_count: int) -> dict:
 def serialized_metadata(metadata: dict) -> str:
     """The YAML text of the record (block style, keys in rosbag2's order)."""
     return yaml.safe_dump(metadata, sort_keys=False, default_flow_style=False)
+
+
+def bag_directory(path) -> Path | None:
+    """The bag directory a recording path names: a path without a suffix (or an existing
+    directory); None for a plain ``.mcap`` file."""
+    path = Path(path)
+    return path if path.is_dir() or not path.suffix else None
+
+
+def write_bag_metadata_file(directory, metadata: dict) -> Path:
+    """``DIR/metadata.yaml`` as ``MetadataIo::write_metadata`` writes it: the BagMetadata
+    mapping under ``rosbag2_bagfile_information``."""
+    out = Path(directory) / METADATA_FILE
+    out.write_text(serialized_metadata({'rosbag2_bagfile_information': metadata}))
+    return out
+
+
+def bag_file(directory) -> Path:
+    """The MCAP file of a bag directory (the first of its ``relative_file_paths``; without
+    metadata.yaml -- a killed recorder -- its only ``.mcap`` file)."""
+    directory = Path(directory)
+    meta = directory / METADATA_FILE
+    if meta.is_file():
+        info = yaml.safe_load(meta.read_text()) or {}
+        paths = (info.get('rosbag2_bagfile_information') or {}).get('relative_file_paths')
+        if paths:
+            return directory / paths[0]
+    files = sorted(directory.glob('*.mcap'))
+    return files[0] if len(files) == 1 else directory / METADATA_FILE

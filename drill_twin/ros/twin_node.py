@@ -2,6 +2,11 @@
 :class:`drill_twin.physics.digital_twin.DigitalTwin` and the real-time policy of
 :mod:`drill_twin.runtime`).
 
+Lifecycle: a managed node (configure = load the model and warm the kernels,
+open the recording, create the topics; activate = run and publish; deactivate =
+hold; cleanup / shutdown = close the recording and drop the model), which
+configures and activates itself unless ``autostart`` is false.
+
 Time: a wall-clock timer advances the model to where the steady clock says it
 should be (:class:`~drill_twin.runtime.pacing.Pacer`: no drift, bounded catch-up,
 overruns and slips counted).  With ``as_fast_as_possible`` it runs unthrottled
@@ -32,9 +37,13 @@ Topics, units, frames and QoS: see the README (the table is
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
+from rclpy.exceptions import ParameterException
+from rclpy.lifecycle import LifecycleNode, LifecyclePublisher, TransitionCallbackReturn
+from rclpy.publisher import Publisher
+from rclpy.subscription import Subscription
 from std_msgs.msg import Float64, Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
@@ -68,13 +77,85 @@ COMMAND_QOS = qos_profile(T.COMMAND)
 HEALTH_WINDOW_S = 10.0
 
 
-class TwinNode(Node):
-    """The twin node (see module docstring)."""
+class TwinNode(LifecycleNode):
+    """The twin node (see module docstring).
+
+    A managed (lifecycle) node: *configure* loads the model and compiles and warms the
+    kernels, opens the recording and creates the topics; *activate* starts simulated time
+    and publishing; *deactivate* holds them; *cleanup* releases what configure made (the
+    recording is closed); *shutdown* does so from any state.  With ``autostart`` (the
+    default) the node configures and activates itself at start-up, so ``ros2 run`` just
+    works; a configuration error then ends the process with one line and exit code 2.
+    """
 
     def __init__(self, **kwargs):
         super().__init__('drill_twin', **kwargs)
         declare_settings(self, TWIN_SETTINGS)
         warn_unknown_overrides(self)
+        self.twin = None
+        self.recorder = None
+        self.advisor = None
+        self.driller = None
+        self.paused = False
+        self.active = False
+        self._entities = []        # what a configuration created and cleanup destroys
+        self._configurations = 0
+        self._failure = None
+        self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        if self._param('autostart'):
+            if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
+                raise self._failure
+            self.trigger_activate()
+
+    # --- lifecycle ----------------------------------------------------------------------
+    def on_configure(self, state):
+        """Load the model (compiling the kernels on a cold cache), open the recording,
+        create the topics and timers; FAILURE with one logged line on bad configuration."""
+        try:
+            self._build_twin()
+            self._open_recording()
+        except (ParameterError, ParameterException, ValueError, OSError) as exc:
+            self._failure = exc
+            self.twin = None
+            self.get_logger().error(f'configure failed: {" ".join(str(exc).split())}')
+            return TransitionCallbackReturn.FAILURE
+        self._create_interface()
+        self._configurations += 1
+        self.get_logger().info(
+            f'twin of {self.twin.scenario.model.name} configured, step {self.twin.step_s:.2e} '
+            f's, hook load {self.twin.hook_load_N:.0f} N, surface speed '
+            f'{self.twin.surface_speed_setpoint:.2f} rad/s')
+        return super().on_configure(state)
+
+    def on_activate(self, state):
+        """Simulated time runs from where it was held (pacing re-anchored to now)."""
+        self._resume_pacing()
+        self.active = True
+        self._timer.reset()
+        self.get_logger().info(f'active at t = {self.twin.time_s:.3f} s')
+        return super().on_activate(state)
+
+    def on_deactivate(self, state):
+        """Hold: simulated time stops, nothing is published but /diagnostics."""
+        self.active = False
+        self._timer.cancel()
+        self.get_logger().info(f'inactive: held at t = {self.twin.time_s:.3f} s')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state):
+        self._release()
+        self.get_logger().info('cleaned up: unconfigured')
+        return super().on_cleanup(state)
+
+    def on_shutdown(self, state):
+        self._release()
+        return super().on_shutdown(state)
+
+    def _build_twin(self):
         g = self._param
         overrides = [o for o in g('overrides') if o]
         self.timeline = None
@@ -87,6 +168,7 @@ class TwinNode(Node):
             config, overrides = self.timeline.configuration, list(self.timeline.overrides)
         else:
             config = g('config')
+        self._source = (config, overrides)
         with interruptible():  # a signal while compiling ends the process at once
             self.get_logger().info(f"loading {g('scenario') or config}; compiling the kernels "
                                    "if numba's cache is cold")
@@ -104,50 +186,86 @@ class TwinNode(Node):
             self.twin = DigitalTwin(scenario, **self._twin_args)
             self.twin.warm_up()  # compile/run the kernels now, not in the first tick
         self._start_run()
+        self.paused = False
         self.health = EventWindow(HEALTH_WINDOW_S)
         self.advisory = None
-        self.advisor = None
         self._advice_due = 0.0
         self._overflows_seen = 0
 
-        self.create_subscription(Float64, 'surface_speed_setpoint', self._on_speed, SETPOINT_QOS)
-        self.create_subscription(Float64, 'hook_load_setpoint', self._on_hook_load, SETPOINT_QOS)
-        self.create_subscription(Float64, 'surface_speed_command', self._on_command, COMMAND_QOS)
-        self.create_subscription(Float64, 'block_velocity_setpoint', self._on_block,
-                                 SETPOINT_QOS)
-        self.create_subscription(Float64MultiArray, T.COMMANDS_TOPIC, self._on_commands,
-                                 SETPOINT_QOS)
-        self.driller = None
-        self.paused = False
-        self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
-        self.create_service(Trigger, '~/reset', self._on_reset)
-        self.create_service(SetBool, '~/pause', self._on_pause)
-        roles = ('measurement', 'advisory', 'diagnostics') + (('clock',) if self.fast else ())
-        self.pub = {t.name: (message_class(t.type), self.create_publisher(
-            message_class(t.type), t.name, qos_profile(t.qos)))
-            for t in T.TOPICS if t.role in roles}
-        self.recorder = None
-        if g('record_path'):
-            self.recorder = TwinRecorder(
-                g('record_path'), self.twin, config, overrides,
-                namespace=self.get_namespace(), node=self.get_fully_qualified_name(),
-                chunk_period_s=g('record_chunk_period_s'),
-                settings={'publish_rate_hz': g('publish_rate_hz'),
-                          'real_time_factor': g('real_time_factor'),
-                          'as_fast_as_possible': self.fast, 'source': 'twin_node'})
-            self.create_timer(g('record_chunk_period_s'), self.recorder.flush)
-        self.add_on_set_parameters_callback(self._validate_parameters)
-        self.add_post_set_parameters_callback(self._apply_parameters)
-        self._set_advisory_period(g('stability_period_s'))
-        self.create_timer(0.1, self._advise)
-        self.create_timer(1.0, self._publish_diagnostics)
-        self._timer = self.create_timer(self._tick_period(), self._tick)
+    def _open_recording(self):
+        """The run's recording; a configuration after a cleanup records to a numbered
+        sibling (``run_2.mcap``), so that nothing recorded before is overwritten."""
+        path = self._param('record_path')
+        if not path:
+            return
+        if self._configurations:
+            path = Path(path)
+            path = path.with_name(f'{path.stem}_{self._configurations + 1}{path.suffix}')
+        config, overrides = self._source
+        self.recorder = TwinRecorder(
+            str(path), self.twin, config, overrides,
+            namespace=self.get_namespace(), node=self.get_fully_qualified_name(),
+            chunk_period_s=self._param('record_chunk_period_s'),
+            settings={'publish_rate_hz': self._param('publish_rate_hz'),
+                      'real_time_factor': self._param('real_time_factor'),
+                      'as_fast_as_possible': self.fast, 'source': 'twin_node'})
+        self.get_logger().info(f'recording to {path}')
+
+    def _create_interface(self):
+        """Subscriptions, publishers (lifecycle publishers: silent unless active; /diagnostics
+        always) and timers of this configuration."""
+        add = self._entities.append
+        for name, cls, callback, qos in (
+                ('surface_speed_setpoint', Float64, self._on_speed, SETPOINT_QOS),
+                ('hook_load_setpoint', Float64, self._on_hook_load, SETPOINT_QOS),
+                ('surface_speed_command', Float64, self._on_command, COMMAND_QOS),
+                ('block_velocity_setpoint', Float64, self._on_block, SETPOINT_QOS),
+                (T.COMMANDS_TOPIC, Float64MultiArray, self._on_commands, SETPOINT_QOS)):
+            add(self.create_subscription(cls, name, callback, qos))
+        roles = ('measurement', 'advisory') + (('clock',) if self.fast else ())
+        self.pub = {}
+        for t in T.TOPICS:
+            if t.role in roles + ('diagnostics',):
+                cls = message_class(t.type)
+                create = (self.create_lifecycle_publisher if t.role in roles
+                          else self.create_publisher)
+                self.pub[t.name] = (cls, create(cls, t.name, qos_profile(t.qos)))
+                add(self.pub[t.name][1])
+        if self.recorder is not None:
+            add(self.create_timer(self._param('record_chunk_period_s'), self.recorder.flush))
+        self._set_advisory_period(self._param('stability_period_s'))
+        add(self.create_timer(0.1, self._advise))
+        add(self.create_timer(1.0, self._publish_diagnostics))
+        self._timer = self.create_timer(self._tick_period(), self._tick, autostart=False)
         if self.timeline is not None:
             self._start_scenario()
-        self.get_logger().info(
-            f'twin of {self.twin.scenario.model.name} running, step {self.twin.step_s:.2e} s, '
-            f'hook load {self.twin.hook_load_N:.0f} N, surface speed '
-            f'{self.twin.surface_speed_setpoint:.2f} rad/s')
+
+    def _release(self):
+        """Undo a configuration: topics and timers destroyed, advisor stopped, recording
+        closed (complete), the model dropped."""
+        self.active = False
+        if self.twin is None:
+            return
+        for entity in self._entities + [self._timer]:
+            if isinstance(entity, LifecyclePublisher):
+                self.destroy_lifecycle_publisher(entity)
+            elif isinstance(entity, Publisher):
+                self.destroy_publisher(entity)
+            elif isinstance(entity, Subscription):
+                self.destroy_subscription(entity)
+            else:
+                self.destroy_timer(entity)
+        self._entities = []
+        self._set_advisory_period(0.0)
+        if self.recorder is not None:
+            self.recorder.close()
+            self.recorder = None
+        self.twin = self.driller = None
+
+    def _resume_pacing(self):
+        """Re-anchor the pacing to now: simulated time goes on from where it was held."""
+        if self.pacer.started:
+            self.pacer.anchor(time.monotonic(), self.twin.time_s, self._ros_now())
 
     def _param(self, name):
         return self.get_parameter(name).value
@@ -226,6 +344,8 @@ class TwinNode(Node):
     # --- services: reset, pause -----------------------------------------------------------
     def _on_reset(self, request, response):
         """Back to the configured initial state (a new twin from the same scenario)."""
+        if self.twin is None:
+            return self._unconfigured(response)
         if self.recorder is not None:
             response.success = False
             response.message = ('reset refused while recording: the recording\'s simulated '
@@ -244,17 +364,25 @@ class TwinNode(Node):
     def _on_pause(self, request, response):
         """``data: true`` holds simulated time (nothing is published); ``false`` resumes from
         where it held, the pacing re-anchored to now."""
+        if self.twin is None:
+            return self._unconfigured(response)
         if request.data == self.paused:
             response.success = True
             response.message = f"already {'paused' if self.paused else 'running'}"
             return response
         self.paused = bool(request.data)
-        if not self.paused and self.pacer.started:
-            self.pacer.anchor(time.monotonic(), self.twin.time_s, self._ros_now())
+        if not self.paused:
+            self._resume_pacing()
         response.success = True
         response.message = (f"{'paused' if self.paused else 'running'} at t = "
                             f'{self.twin.time_s:.3f} s')
         self.get_logger().info(response.message)
+        return response
+
+    @staticmethod
+    def _unconfigured(response):
+        response.success = False
+        response.message = 'not configured: configure the node first (ros2 lifecycle set)'
         return response
 
     # --- operations scenarios ----------------------------------------------------------
@@ -264,6 +392,8 @@ class TwinNode(Node):
                                f'{len(self.timeline.steps)} steps')
 
     def _on_start_scenario(self, request, response):
+        if self.twin is None:
+            return self._unconfigured(response)
         if self.timeline is None:
             response.success = False
             response.message = 'no scenario: start the node with -p scenario:=FILE'
@@ -322,6 +452,8 @@ class TwinNode(Node):
 
     # --- parameters: validate on set, apply after ------------------------------------
     def _validate_parameters(self, params):
+        if self.twin is None:  # unconfigured: the values act at the next configure
+            return SetParametersResult(successful=True)
         for prm in params:
             if prm.name == 'max_surface_speed_rad_s' and prm.value < self.arbiter.operator_speed:
                 return SetParametersResult(successful=False, reason=(
@@ -331,6 +463,8 @@ class TwinNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, params):
+        if self.twin is None:
+            return
         wall, sim = time.monotonic(), self.twin.time_s
         # the pacer re-anchors at the current instant: stamps stay continuous
         for prm in params:
@@ -340,7 +474,8 @@ class TwinNode(Node):
                 self.pacer.retime(wall, sim, period_s=1.0 / prm.value)
                 self._timer.cancel()
                 self.destroy_timer(self._timer)
-                self._timer = self.create_timer(1.0 / prm.value, self._tick)
+                self._timer = self.create_timer(1.0 / prm.value, self._tick,
+                                                autostart=self.active)
             elif prm.name == 'max_surface_speed_rad_s':
                 self.twin.max_surface_speed = float(prm.value)
             elif prm.name == 'command_timeout_s':
@@ -352,7 +487,7 @@ class TwinNode(Node):
 
     # --- real-time loop ------------------------------------------------------------------
     def _tick(self):
-        if self.blow_up or self.paused:
+        if self.blow_up or self.paused or not self.active:
             return
         wall = time.monotonic()
         back = self.arbiter.check(wall)
@@ -438,7 +573,7 @@ class TwinNode(Node):
                 self._send('stability/spectral_abscissa', {'data': self.advisory[0]})
                 self._send('stability/critical_surface_speed', {'data': self.advisory[1]})
         now = time.monotonic()
-        if now >= self._advice_due and not self.advisor.busy and self.advisor.alive:
+        if self.active and now >= self._advice_due and not self.advisor.busy and self.advisor.alive:
             wob = self.twin.string_weight_N - self.twin.hook_load_N
             if self.advisor.request(self.arbiter.operator_speed, wob):
                 self._advice_due = now + self._param('stability_period_s')
@@ -472,6 +607,7 @@ class TwinNode(Node):
         self._overflows_seen = health['history_overflows']
         (level, message), recent = self._status(now)
         values = {'simulated_time_s': round(m['time_s'], 3),
+                  'lifecycle': 'active' if self.active else 'inactive',
                   'speed_source': self.arbiter.source,
                   'scenario': self._scenario_state(),
                   'delay_residual_rad': m['delay_residual_rad'],
@@ -497,11 +633,7 @@ class TwinNode(Node):
         return f'{self.driller.index + 1}/{len(self.driller.steps)} {self.driller.step.action}'
 
     def destroy_node(self):
-        if self.advisor is not None:
-            self.advisor.close()
-            self.advisor = None
-        if self.recorder is not None:
-            self.recorder.close()
+        self._release()
         return super().destroy_node()
 
 

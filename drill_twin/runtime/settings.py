@@ -74,6 +74,8 @@ TWIN_SETTINGS = (
             '"" = off', read_only=True),
     Setting('record_chunk_period_s', 0.25, 'longest span one MCAP chunk holds = most a kill '
             'can lose', 's', 0.01, 10.0, read_only=True),
+    Setting('autostart', True, 'configure and activate at start-up (false: wait for the '
+            'lifecycle transitions, e.g. ros2 lifecycle set)', read_only=True),
 )
 
 CONTROLLER_SETTINGS = (
