@@ -22,6 +22,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,7 @@ from .physics.scenario import Scenario, load_scenario
 from .physics.simulation import Simulation, SimulationDiverged
 from .physics.statistics import SERIES_UNITS, output_series, stick_slip_summary
 from .recording_cli import add_parsers as add_recording_parsers
+from .sweep.cli import add_parsers as add_sweep_parsers
 
 
 def run_scenario(scenario: Scenario, duration=None, progress=None):
@@ -258,24 +260,51 @@ def _omega_window(args, scenario):
 
 
 def _chart(args, scenario: Scenario) -> int:
-    from .stability.charts import parse_axis, plot_chart, stability_chart
+    """``stability chart``: a linear sweep (:mod:`drill_twin.sweep`, its results kept in
+    ``OUT.sweep/``), drawn and saved as before (PNG, and the chart data as .npz)."""
+    from .stability.charts import ChartResult, plot_chart
+    from .sweep import SweepSpec, SweepStore, parse_axis, run_sweep
+    from .sweep.engine import block_points_for
     if not (args.x and args.y and args.out):
         raise ParameterError('stability chart needs --x, --y and --out')
-    xk, xs = parse_axis(args.x)
-    yk, ys = parse_axis(args.y)
-    t0 = time.perf_counter()
-    chart = stability_chart(scenario.raw, xk, xs, yk, ys, workers=args.workers,
-                            threshold=args.threshold)
-    wall = time.perf_counter() - t0
+    x, y = parse_axis(args.x), parse_axis(args.y)
+    if x.size < 2 or y.size < 2:
+        raise ParameterError('a chart needs N >= 2 on both axes')
+    spec = SweepSpec(scenario.raw, 'linear', x, y, threshold=args.threshold)
+    spec = replace(spec, block_points=block_points_for(spec, CHART_POINT_S,
+                                                       args.workers or os.cpu_count()))
     out = Path(args.out)
+    _forget_other_sweep(out.with_suffix('.sweep'), spec)
+    t0 = time.perf_counter()
+    report = run_sweep(spec, out.with_suffix('.sweep'), workers=args.workers,
+                       scheduler=args.scheduler)
+    wall = time.perf_counter() - t0
+    arrays = SweepStore(out.with_suffix('.sweep'), spec).arrays()
+    chart = ChartResult(x.key, y.key, np.array(x.values), np.array(y.values),
+                        arrays['abscissa'], arrays['unstable'])
     out.parent.mkdir(parents=True, exist_ok=True)
     plot_chart(chart, out, title=f'{scenario.model.name}: stable region shaded, D-curves')
     data = out.with_suffix('.npz')
     chart.save(data)
     stable = float((chart.unstable == 0).mean())
     print(json.dumps({'png': str(out), 'data': str(data), 'points': int(chart.unstable.size),
-                      'stable_fraction': stable, 'wall_s': wall}))
+                      'stable_fraction': stable, 'wall_s': wall,
+                      'sweep': report.as_dict()}))
     return 0
+
+
+def _forget_other_sweep(directory: Path, spec) -> None:
+    """A chart's sweep directory is its own cache: one of another chart is replaced (the
+    same chart is resumed)."""
+    import shutil
+    stored = directory / 'spec.json'
+    if stored.is_file() and json.dumps(json.loads(stored.read_text())['spec'],
+                                       sort_keys=True) != spec.to_json():
+        shutil.rmtree(directory)
+
+
+#: typical cost of one linear chart point [s] (sizes the chart's tasks)
+CHART_POINT_S = 1.5e-3
 
 
 def _discretization(args, scenario: Scenario) -> int:
@@ -438,6 +467,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument('--y', help='chart axis KEY:MIN:MAX:N')
     s.add_argument('--out', help='chart PNG (data goes beside it as .npz)')
     s.add_argument('--workers', type=int, default=None, help='processes (default: all cores)')
+    s.add_argument('--scheduler', default=None, help='chart: Dask scheduler tcp://HOST:PORT '
+                   '(as drill-twin sweep)')
     s.add_argument('--sizes', default='2,4,8,16,32,64,128,256',
                    help='discretization: element / oscillator counts')
     s.add_argument('--threshold', type=float, default=1e-9,
@@ -469,6 +500,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_operations_parsers(sub)
     add_estimation_parsers(sub)
     add_control_parsers(sub)
+    add_sweep_parsers(sub)
     return p
 
 

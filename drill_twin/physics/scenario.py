@@ -42,7 +42,7 @@ from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, St
 from .schema import DRIVE, ConfigError, validate
 from .top_drive import DriveGains, TopDrive, mode_gains
 
-__all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides',
+__all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides', 'with_values',
            'CONFIG_DIR', 'ConfigError', 'resolve_config', 'read_config']
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / 'config'
@@ -129,6 +129,15 @@ def apply_overrides(raw: dict, overrides, origin: dict | None = None,
         _set_key(out, key, parsed, where)
         if origin is not None:
             origin[key] = where
+    return out
+
+
+def with_values(raw: dict, values: dict) -> dict:
+    """A copy of ``raw`` with ``{dotted key: value}`` set (values as Python objects, not
+    YAML text: what a sweep assigns at each point)."""
+    out = copy.deepcopy(raw)
+    for key, value in values.items():
+        _set_key(out, key, value, f'{key}={value!r}')
     return out
 
 
@@ -301,9 +310,11 @@ def _check_step(dt: float, model, groups):
 
 
 def scenario_from_dict(raw: dict, source: str = 'configuration',
-                       origin: dict | None = None) -> Scenario:
+                       origin: dict | None = None, check_step: bool = True) -> Scenario:
     """Validate a configuration mapping (:mod:`~drill_twin.physics.schema`) and build the
-    :class:`Scenario`.  Errors are :class:`ConfigError`, one line, prefixed by ``source``."""
+    :class:`Scenario`.  Errors are :class:`ConfigError`, one line, prefixed by ``source``.
+    ``check_step=False`` skips the check of a configured time step against the RK4
+    stability limit (for linear analyses, which never integrate)."""
     cfg = validate(raw, source, origin)
     units = cfg['units']
     _fill_defaults(cfg, units)
@@ -331,7 +342,8 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
             dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.min_delay)
         else:
             dt = sim['time_step']
-            _check_step(dt, model, groups)
+            if check_step:
+                _check_step(dt, model, groups)
     except ConfigError:
         raise
     except ParameterError as exc:

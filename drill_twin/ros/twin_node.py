@@ -101,14 +101,17 @@ class TwinNode(LifecycleNode):
         self._entities = []        # what a configuration created and cleanup destroys
         self._configurations = 0
         self._failure = None
+        self._autostarting = False
         self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        if self._param('autostart'):
+        if self._param('autostart'):   # a failure is the process's one error line
+            self._autostarting = True
             if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
                 raise self._failure
+            self._autostarting = False
             self.trigger_activate()
 
     # --- lifecycle ----------------------------------------------------------------------
@@ -121,8 +124,13 @@ class TwinNode(LifecycleNode):
         except (ParameterError, ParameterException, ValueError, OSError) as exc:
             self._failure = exc
             self.twin = None
-            self.get_logger().error(f'configure failed: {" ".join(str(exc).split())}')
+            if not self._autostarting:
+                self.get_logger().error(f'configure failed: {" ".join(str(exc).split())}')
             return TransitionCallbackReturn.FAILURE
+        except Exception as exc:  # a bug: rclpy would swallow it, so keep it to re-raise
+            self._failure, self.twin = exc, None
+            self.get_logger().error(f'configure failed (internal error): {exc!r}')
+            return TransitionCallbackReturn.ERROR
         self._create_interface()
         self._configurations += 1
         self.get_logger().info(

@@ -1,0 +1,94 @@
+"""One block of sweep points, evaluated in the calling process (a Dask task, or the
+in-process reference): no Dask, no I/O.
+
+Linear points: the configuration at the point, linearised (:mod:`drill_twin.stability`),
+its rightmost roots; along a line of ``x`` the roots of the previous point seed the Newton
+refinement of the next one, as in the stability charts.  Nonlinear points: the
+configuration simulated for ``duration`` and the statistics of
+:func:`drill_twin.physics.statistics.stick_slip_summary` after ``settle``.  A point where
+the configuration is invalid (no drilling, a rejected value) or the run diverges is NaN
+(``unstable``: -1).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..physics.parameters import ParameterError
+from ..physics.scenario import scenario_from_dict, with_values
+from ..physics.simulation import Simulation, SimulationDiverged
+from ..physics.statistics import output_series, stick_slip_summary
+from .spec import SweepSpec
+
+__all__ = ['evaluate_block', 'BlockResult', 'UPSILON_O']
+
+#: virtual key of linear sweeps: the dimensionless penetration rate υ_o, realised by
+#: W_o = n_b λ + 2π υ_o / ω_o (eq. 2.4.5) at each point
+UPSILON_O = 'upsilon_o'
+
+
+class BlockResult(dict):
+    """``{output: values of the block's points}`` plus ``block`` and ``compute_s`` (the wall
+    time the evaluation took in the worker [s])."""
+
+
+def evaluate_block(spec: SweepSpec, block: int) -> BlockResult:
+    """Evaluate the points of ``block`` of ``spec`` (see module docstring)."""
+    t0 = time.perf_counter()
+    flats = spec.block_range(block)
+    if spec.kind == 'linear':
+        out = _linear(spec, flats)
+    else:
+        out = _nonlinear(spec, flats)
+    result = BlockResult(out)
+    result['block'] = block
+    result['compute_s'] = time.perf_counter() - t0
+    return result
+
+
+def _linear_system(spec: SweepSpec, values: dict):
+    from ..stability.linearize import linearize_scenario
+    ups = values.pop(UPSILON_O, None)
+    sc = scenario_from_dict(with_values(spec.raw, values), 'sweep', check_step=False)
+    g = sc.groups
+    if ups is not None:
+        g = g.replace(W_o=g.n_b * g.lam + 2 * math.pi * ups / g.omega_o)
+    return linearize_scenario(sc, g)
+
+
+def _linear(spec: SweepSpec, flats) -> dict:
+    from ..stability.spectrum import rightmost_roots
+    abscissa = np.full(len(flats), np.nan)
+    unstable = np.full(len(flats), -1, dtype=np.int32)
+    seeds = None
+    for i, flat in enumerate(flats):
+        if spec.starts_line(flat):
+            seeds = None
+        try:
+            dde = _linear_system(spec, spec.values_at(flat))
+        except (ValueError, ParameterError):
+            seeds = None     # no drilling / an invalid point
+            continue
+        res = rightmost_roots(dde, count=16, seeds=seeds)
+        abscissa[i] = res.abscissa
+        unstable[i] = int(np.sum(res.roots.real > spec.threshold))
+        seeds = res.roots
+    return {'abscissa': abscissa, 'unstable': unstable}
+
+
+def _nonlinear(spec: SweepSpec, flats) -> dict:
+    out = {stat: np.full(len(flats), np.nan) for stat in spec.stats}
+    for i, flat in enumerate(flats):
+        try:
+            sc = scenario_from_dict(with_values(spec.raw, spec.values_at(flat)), 'sweep')
+            unit = sc.time_unit_s
+            traj = Simulation.from_scenario(sc).run(spec.duration / unit, sc.record_interval)
+            summary = stick_slip_summary(output_series(sc, traj), spec.settle)
+        except (ValueError, ParameterError, SimulationDiverged):
+            continue
+        for stat in spec.stats:
+            value = summary[stat]
+            out[stat][i] = np.nan if value is None else float(value)
+    return out

@@ -1,0 +1,62 @@
+"""The figure of a sweep: the stable region and D-curves of a linear sweep; the map of the
+first statistic of a nonlinear one with the stick-slip boundary (stick fraction > 0); the
+probability of stick-slip of a Monte Carlo sweep."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ['plot_sweep']
+
+
+def plot_sweep(ds, path, title: str = '') -> None:
+    """Write the figure of the sweep dataset ``ds`` (:meth:`SweepStore.dataset`) to ``path``."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 5.0))
+    x, y = ds['x'].values, ds['y'].values
+    if ds.attrs['kind'] == 'linear' and 'sample' not in ds.dims:
+        _linear(ax, x, y, ds['unstable'].values)
+    else:
+        field, label = _field(ds)
+        if len(y) == 1:
+            ax.plot(x, field[0], 'o-')
+            ax.set_ylabel(label)
+        else:
+            mesh = ax.pcolormesh(x, y, field, shading='nearest', cmap='viridis')
+            fig.colorbar(mesh, ax=ax, label=label)
+            if 'stick_fraction' in ds and 'sample' not in ds.dims:
+                stuck = (np.nan_to_num(ds['stick_fraction'].values) > 0).astype(float)
+                if 0 < stuck.mean() < 1:
+                    ax.contour(x, y, stuck, levels=[0.5], colors='w', linewidths=1.5)
+    ax.set_xlabel(ds.attrs['x_key'])
+    if len(y) > 1:
+        ax.set_ylabel(ds.attrs['y_key'])
+    ax.set_title(title or f"{ds.attrs['kind']} sweep")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _linear(ax, x, y, unstable):
+    """Stable region shaded, D-curves = changes of the number of crossing events."""
+    if len(y) == 1:
+        ax.plot(x, unstable[0], 'o-')
+        ax.set_ylabel('unstable roots')
+        return
+    X, Y = np.meshgrid(x, y)
+    ax.contourf(X, Y, (unstable == 0).astype(float), levels=[0.5, 1.5], colors=['tab:blue'],
+                alpha=0.35)
+    pairs = (np.where(unstable < 0, 0, unstable) + 1) // 2
+    top = max(int(pairs.max()), 1)
+    ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0), colors='k',
+               linewidths=0.6)
+
+
+def _field(ds):
+    if 'stick_slip_probability' in ds:
+        return ds['stick_slip_probability'].values, 'probability of stick-slip'
+    spec_stats = [k for k in ds.data_vars if ds[k].dims == ('y', 'x') and k != 'run']
+    name = spec_stats[0]
+    return ds[name].values, name
