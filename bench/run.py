@@ -238,25 +238,65 @@ def bench_jitcdde(smoke):
 # --- 4: stability --------------------------------------------------------------------
 
 def bench_stability(smoke):
-    from drill_twin.stability.charts import stability_chart
+    import tempfile
+
     from drill_twin.stability.spectrum import rightmost_roots
+    from drill_twin.sweep import SweepSpec, parse_axis, run_sweep
+    from drill_twin.sweep.engine import block_points_for
     n = 20 if smoke else 200
     raw = load_scenario('rgd2_stick_slip', ['groups.psi=13.79', 'groups.n_b=4',
                                             'groups.n_b_lambda=4']).raw
-    t0 = time.perf_counter()
-    stability_chart(raw, 'groups.omega_o', np.linspace(1, 40, n), 'upsilon_o',
-                    np.linspace(0.05, 4, n), workers=os.cpu_count())
-    wall = time.perf_counter() - t0
-    row('stability', f'{n} x {n} RGD-2 chart, {os.cpu_count()} cores', f'{wall:.1f}', 's',
-        '<= 30 s' if not smoke else '', (wall <= 30) if not smoke else None)
+    spec = SweepSpec(raw, 'linear', parse_axis(f'groups.omega_o:1:40:{n}'),
+                     parse_axis(f'upsilon_o:0.05:4:{n}'))
+    cores = os.cpu_count()
+    from dataclasses import replace
+    spec = replace(spec, block_points=block_points_for(spec, 1.5e-3, cores))
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()   # local Dask cluster start-up included
+        report = run_sweep(spec, out, workers=cores)
+        wall = time.perf_counter() - t0
+    row('stability', f'{n} x {n} RGD-2 chart (sweep engine), {cores} cores', f'{wall:.1f}',
+        's', '<= 15 s' if not smoke else '', (wall <= 15) if not smoke else None,
+        f'{1e3 * report.compute_s / spec.points:.2f} ms per point; {spec.blocks} tasks; '
+        f'scheduler overhead {1e3 * report.overhead_per_task_s:.1f} ms per task '
+        f'({100 * (1 - report.efficiency):.1f} %)')
     for ne in ((58, 10), (256, 43)):
         sc = load_scenario('benchmark_fem', [f'model.elements={ne[0]}',
-                                             f'model.bha_elements={ne[1]}'])
+                                             f'model.bha_elements={ne[1]}',
+                                             'simulation.time_step=auto'])
         rightmost_roots(sc.model, sc.groups)
         t0 = time.perf_counter()
         r = rightmost_roots(sc.model, sc.groups)
         row('stability', f'rightmost roots, FEM-{ne[0]}', f'{time.perf_counter() - t0:.2f}',
             's', '', None, f'abscissa {r.abscissa:.4f}/t*')
+
+
+def bench_sweep(smoke):
+    """A nonlinear RGD map on 1 and 2 local Dask workers: parallel efficiency T1 / (2 T2),
+    and the scheduler's cost per task."""
+    import tempfile
+
+    from drill_twin.sweep import SweepSpec, parse_axis, run_sweep
+    n, tau = (4, 30.0) if smoke else (20, 300.0)
+    spec = SweepSpec(load_scenario('rgd_stick_slip').raw, 'nonlinear',
+                     parse_axis(f'groups.omega_o:3:15:{n}'), parse_axis(f'groups.W_o:5.5:9:{n}'),
+                     duration=tau, settle=tau / 2, block_points=1)
+    walls = {}
+    for workers in (1, 2):
+        with tempfile.TemporaryDirectory() as out:
+            report = run_sweep(spec, out, workers=workers)
+        walls[workers] = report
+    eff = walls[1].wall_s / (2 * walls[2].wall_s)
+    row('sweeps', f'{n} x {n} nonlinear RGD map (tau = {tau:g}), 1 -> 2 workers',
+        f'{100 * eff:.0f}%', 'efficiency', '>= 85 %' if not smoke else '',
+        (eff >= 0.85) if not smoke else None,
+        f'{walls[1].wall_s:.1f} s -> {walls[2].wall_s:.1f} s, '
+        f'{walls[2].compute_s / spec.points:.2f} s per point')
+    r = walls[2]
+    row('sweeps', 'scheduler overhead per task (2 workers)',
+        f'{1e3 * r.overhead_per_task_s:.1f}', 'ms', '< 5 % of a task' if not smoke else '',
+        (r.overhead_per_task_s < 0.05 * r.compute_s / r.computed) if not smoke else None,
+        f'{r.computed} tasks of {r.compute_s / r.computed:.2f} s')
 
 
 # --- 4b: downhole estimator ------------------------------------------------------------
@@ -638,7 +678,8 @@ def main():
     print(f'{"section":<10} {"item":<46} {"value":>12} {"unit":<12} {"target":<14} '
           f'{"status":<8} note')
     parts = (bench_rtf, bench_scaling, bench_numpy_peer, bench_physical_limit,
-             bench_stability, bench_estimator, bench_nodes, bench_realtime_under_load, bench_memory,
+             bench_stability, bench_sweep, bench_estimator, bench_nodes,
+             bench_realtime_under_load, bench_memory,
              bench_recording_soak, bench_recording, bench_jitcdde)
     for part in parts:
         if not args.only or part.__name__[len('bench_'):] in args.only:

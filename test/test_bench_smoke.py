@@ -17,6 +17,6 @@ def test_bench_smoke():
     assert proc.returncode == 0, proc.stderr[-3000:]
     rows = [line for line in proc.stdout.splitlines()[1:] if line.strip()]
     sections = {line.split()[0] for line in rows}
-    assert sections >= {'RTF', 'scaling', 'peers', 'stability', 'nodes', 'realtime', 'memory',
-                        'recording'}
+    assert sections >= {'RTF', 'scaling', 'peers', 'stability', 'sweeps', 'nodes', 'realtime',
+                        'memory', 'recording'}
     assert not any(' nan ' in f' {line} ' for line in rows), rows
