@@ -42,6 +42,8 @@ NOT_HERE = {
     'ros2 run drill_twin twin_node --ros-args -p autostart:=false':
         'a managed start: the transitions that follow are run through the lifecycle '
         'services by test_lifecycle.py',
+    'drill-twin sweep ': 'a 96-point nonlinear map, ~1 min on 2 cores; the engine is '
+                         'tested on a real multi-process Dask cluster by test_sweep.py',
     'ros2 lifecycle ': 'needs the ros2 CLI (not on PyPI); the same transitions through the '
                        'lifecycle services are run by test_lifecycle.py; tried by hand '
                        'against a colcon build of ros2/ros2cli jazzy',

@@ -81,12 +81,14 @@ def _block_points(args, out: Path) -> int:
     if stored.is_file():
         return int(json.loads(stored.read_text())['spec']['block_points'])
     probe = spec_from_args(args, 1)
-    evaluate_block(probe, 0)      # compiles (or loads) the kernels: not timed
-    t0 = time.perf_counter()
-    evaluate_block(probe, min(1, probe.points - 1))
+    evaluate_block(probe, probe.points // 2)   # compiles (or loads) the kernels: not timed
+    seconds = 0.0
+    for flat in sorted({0, probe.points // 2, probe.points - 1}):   # the slowest of three
+        t0 = time.perf_counter()
+        evaluate_block(probe, flat)
+        seconds = max(seconds, time.perf_counter() - t0)
     import os
-    workers = args.workers or os.cpu_count()
-    return block_points_for(probe, time.perf_counter() - t0, workers)
+    return block_points_for(probe, seconds, args.workers or os.cpu_count())
 
 
 def cmd_sweep(args) -> int:

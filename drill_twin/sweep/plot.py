@@ -17,7 +17,7 @@ def plot_sweep(ds, path, title: str = '') -> None:
     fig, ax = plt.subplots(figsize=(6.4, 5.0))
     x, y = ds['x'].values, ds['y'].values
     if ds.attrs['kind'] == 'linear' and 'sample' not in ds.dims:
-        _linear(ax, x, y, ds['unstable'].values)
+        _linear(ax, x, y, ds['unstable'].values, ds['abscissa'].values)
     else:
         field, label = _field(ds)
         if len(y) == 1:
@@ -39,19 +39,24 @@ def plot_sweep(ds, path, title: str = '') -> None:
     plt.close(fig)
 
 
-def _linear(ax, x, y, unstable):
-    """Stable region shaded, D-curves = changes of the number of crossing events."""
+def _linear(ax, x, y, unstable, abscissa=None):
+    """The spectral abscissa as colour (if given), the stable region shaded, D-curves =
+    changes of the number of crossing events."""
     if len(y) == 1:
         ax.plot(x, unstable[0], 'o-')
         ax.set_ylabel('unstable roots')
         return
     X, Y = np.meshgrid(x, y)
-    ax.contourf(X, Y, (unstable == 0).astype(float), levels=[0.5, 1.5], colors=['tab:blue'],
-                alpha=0.35)
+    if abscissa is not None:
+        mesh = ax.pcolormesh(x, y, abscissa, shading='nearest', cmap='magma')
+        ax.figure.colorbar(mesh, ax=ax, label='spectral abscissa [1/t*]')
+    stable = (unstable == 0).astype(float)
+    if stable.any():
+        ax.contourf(X, Y, stable, levels=[0.5, 1.5], colors=['tab:blue'], alpha=0.35)
     pairs = (np.where(unstable < 0, 0, unstable) + 1) // 2
     top = max(int(pairs.max()), 1)
-    ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0), colors='k',
-               linewidths=0.6)
+    ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0), colors='w'
+               if abscissa is not None else 'k', linewidths=0.6)
 
 
 def _field(ds):
