@@ -187,6 +187,11 @@ def test_a_different_sweep_in_the_same_directory_is_refused(tmp_path):
      'uniform'),
     (['--x', 'groups.omega_o:1:4:3', '--samples', '3'], '--vary'),
     (['--x', 'groups.omega_o:1:4:3', '--scheduler', 'tcp://127.0.0.1:9'], 'no Dask scheduler'),
+    (['--x', 'groups.omega_o:1:4:3', '--samples', '3', '--vary', 'groups.beta=uniform(0.2,0.5)',
+      '--seed', '-1'], '--seed'),
+    (['--x', 'groups.omega_o:1:4:100000', '--y', 'groups.W_o:1:4:100000'], 'split the sweep'),
+    (['--x', 'groups.omega_o:1:4:3', '--workers', '0'], '--workers'),
+    (['--x', 'groups.omega_o:1:4:3', '--kind', 'nonlinear', '--duration', 'nan'], 'duration'),
 ])
 def test_bad_sweep_input_is_one_line_and_exit_code_2(tmp_path, bad, words):
     proc = subprocess.run([sys.executable, '-m', 'drill_twin.cli', 'sweep', '--config',

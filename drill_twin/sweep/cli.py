@@ -95,6 +95,9 @@ def cmd_sweep(args) -> int:
     from ..console import Progress
     from .engine import run_sweep
     from .plot import plot_sweep
+    if (args.workers is not None and args.workers < 1) or (args.block is not None
+                                                           and args.block < 1):
+        raise ParameterError('--workers and --block must be >= 1')
     out = Path(args.out)
     spec = spec_from_args(args, _block_points(args, out))
     report = run_sweep(spec, out, scheduler=args.scheduler, workers=args.workers,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -27,6 +27,8 @@ LINEAR_OUTPUTS = ('abscissa', 'unstable')
 NONLINEAR_STATS = ('severity', 'stick_fraction', 'bit_speed_max', 'bit_speed_min',
                    'bit_speed_mean', 'rop_mean', 'first_angular_stick', 'delay_residual_max')
 DEFAULT_STATS = ('severity', 'stick_fraction', 'rop_mean')
+#: most points one sweep holds (its result arrays live in memory when assembled)
+MAX_POINTS = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -132,7 +134,7 @@ class SweepSpec:
     threshold: float = 1e-9
     block_points: int = 1
     label: str = ''
-    draws: tuple = field(default=(), compare=True)
+    draws: tuple = ()
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -150,6 +152,12 @@ class SweepSpec:
                                  '--vary KEY=DIST')
         if self.block_points < 1:
             raise ParameterError(f'block of {self.block_points} points: must be >= 1')
+        if self.seed < 0 or not math.isfinite(self.threshold):
+            raise ParameterError(f'--seed {self.seed} must be >= 0 and --threshold '
+                                 f'{self.threshold:g} finite')
+        if self.points > MAX_POINTS:
+            raise ParameterError(f'{self.points} points (grid x samples): more than '
+                                 f'{MAX_POINTS:.0e}; split the sweep')
         if self.vary and not self.draws:
             rng = np.random.default_rng(self.seed)
             draws = tuple(tuple(float(v) for v in d.draw(rng, self.samples)) for d in self.vary)
