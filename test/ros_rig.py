@@ -4,10 +4,11 @@ import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
-from drill_twin.ros.twin_node import SETPOINT_QOS
+from drill_twin.ros.twin_node import SETPOINT_QOS, TwinNode
 
 
 class Rig:
@@ -25,6 +26,23 @@ class Rig:
         self.nodes.append(node)
         self.ex.add_node(node)
         return node
+
+    def twin(self, **params):
+        """A twin node in this rig: 5x real time, no stability advisor, unless ``params``
+        say otherwise."""
+        base = {'real_time_factor': 5.0, 'stability_period_s': 0.0}
+        base.update(params)
+        return self.add(TwinNode(context=self.ctx, parameter_overrides=[
+            Parameter(k, value=v) for k, v in base.items()]))
+
+    def call(self, srv_type, name, request, timeout=10):
+        """Call a service from the probe; the response (asserts it came within
+        ``timeout`` seconds)."""
+        client = self.probe.create_client(srv_type, name)
+        assert self.spin_until(client.service_is_ready, 10)
+        future = client.call_async(request)
+        assert self.spin_until(future.done, timeout)
+        return future.result()
 
     def listen(self, topic, msg_type, extract, qos=qos_profile_sensor_data):
         self.data[topic] = []

@@ -16,27 +16,16 @@ from drill_twin.ros.twin_node import TwinNode  # noqa: E402
 
 
 def managed_twin(rig, **params):
-    base = {'real_time_factor': 5.0, 'stability_period_s': 0.0, 'autostart': False}
-    base.update(params)
-    return rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
-        Parameter(k, value=v) for k, v in base.items()]))
-
-
-def call(rig, srv_type, name, request):
-    client = rig.probe.create_client(srv_type, name)
-    assert rig.spin_until(client.service_is_ready, 10)
-    future = client.call_async(request)
-    assert rig.spin_until(future.done, 30)
-    return future.result()
+    return rig.twin(**{'autostart': False, **params})
 
 
 def state(rig):
-    return call(rig, GetState, '/drill_twin/get_state', GetState.Request()).current_state.id
+    return rig.call(GetState, '/drill_twin/get_state', GetState.Request(), 30).current_state.id
 
 
 def transition(rig, transition_id):
     request = ChangeState.Request(transition=Transition(id=transition_id))
-    return call(rig, ChangeState, '/drill_twin/change_state', request).success
+    return rig.call(ChangeState, '/drill_twin/change_state', request, 30).success
 
 
 def test_lifecycle_transitions_through_the_service_interface(rig, tmp_path):
@@ -44,7 +33,7 @@ def test_lifecycle_transitions_through_the_service_interface(rig, tmp_path):
     node = managed_twin(rig, record_path=str(record))
     rig.listen('surface/torque', Float64, lambda m: m.data)
     assert state(rig) == State.PRIMARY_STATE_UNCONFIGURED and node.twin is None
-    assert not call(rig, Trigger, '/drill_twin/reset', Trigger.Request()).success
+    assert not rig.call(Trigger, '/drill_twin/reset', Trigger.Request(), 30).success
 
     assert transition(rig, Transition.TRANSITION_CONFIGURE)
     assert state(rig) == State.PRIMARY_STATE_INACTIVE
@@ -89,7 +78,7 @@ def test_a_failed_configure_leaves_the_node_unconfigured_and_alive(rig):
     node = managed_twin(rig, overrides=['string.blades=-1'])
     assert not transition(rig, Transition.TRANSITION_CONFIGURE)
     assert state(rig) == State.PRIMARY_STATE_UNCONFIGURED and node.twin is None
-    assert not call(rig, Trigger, '/drill_twin/reset', Trigger.Request()).success
+    assert not rig.call(Trigger, '/drill_twin/reset', Trigger.Request(), 30).success
 
 
 def test_autostart_runs_at_once_and_a_bad_configuration_raises_one_error(rig):

@@ -12,15 +12,8 @@ from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
-from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS, TwinNode  # noqa: E402
+from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS  # noqa: E402
 from drill_twin.runtime.settings import CONTROLLER_SETTINGS, TWIN_SETTINGS  # noqa: E402
-
-
-def twin(rig, **params):
-    base = {'real_time_factor': 5.0, 'stability_period_s': 0.0}
-    base.update(params)
-    return rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
-        Parameter(k, value=v) for k, v in base.items()]))
 
 
 def controller(rig, **params):
@@ -37,7 +30,7 @@ def set_ok(node, name, value):
 @pytest.mark.parametrize('node_kind, settings', [('twin', TWIN_SETTINGS),
                                                  ('controller', CONTROLLER_SETTINGS)])
 def test_start_up_parameters_are_read_only_and_refused(rig, node_kind, settings):
-    node = twin(rig) if node_kind == 'twin' else controller(rig)
+    node = rig.twin() if node_kind == 'twin' else controller(rig)
     for s in settings:
         desc = node.describe_parameter(s.name)
         assert desc.read_only == s.read_only, s.name
@@ -47,7 +40,7 @@ def test_start_up_parameters_are_read_only_and_refused(rig, node_kind, settings)
 
 
 def test_real_time_factor_changes_the_pace_of_simulated_time(rig):
-    node = twin(rig, real_time_factor=2.0)
+    node = rig.twin(real_time_factor=2.0)
     clock = node.get_clock()
 
     def pace(span_s):
@@ -62,7 +55,7 @@ def test_real_time_factor_changes_the_pace_of_simulated_time(rig):
 
 
 def test_publish_rate_changes_the_period_of_header_stamps(rig):
-    node = twin(rig, publish_rate_hz=100.0)
+    node = rig.twin(publish_rate_hz=100.0)
     rig.listen('bit/velocity', TwistStamped,
                lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec)
     assert rig.spin_until(lambda: len(rig.data['bit/velocity']) > 60, 30)
@@ -74,7 +67,7 @@ def test_publish_rate_changes_the_period_of_header_stamps(rig):
 
 
 def test_max_surface_speed_applies_at_once(rig):
-    node = twin(rig)
+    node = rig.twin()
     initial = node.twin.surface_speed_setpoint
     pub = rig.publisher('surface_speed_setpoint')
     set_ok(node, 'max_surface_speed_rad_s', 14.0)
@@ -91,7 +84,7 @@ def test_max_surface_speed_applies_at_once(rig):
 
 
 def test_command_timeout_decides_when_the_operator_set_point_returns(rig):
-    node = twin(rig, command_timeout_s=60.0)
+    node = rig.twin(command_timeout_s=60.0)
     initial = node.twin.surface_speed_setpoint
     cmd = rig.probe.create_publisher(Float64, 'surface_speed_command', COMMAND_QOS)
     assert rig.spin_until(lambda: node.twin.time_s > 0.2, 20)
@@ -106,7 +99,7 @@ def test_command_timeout_decides_when_the_operator_set_point_returns(rig):
 
 
 def test_stability_period_turns_the_advisor_off_and_on(rig):
-    node = twin(rig, stability_period_s=30.0)
+    node = rig.twin(stability_period_s=30.0)
     rig.listen('stability/spectral_abscissa', Float64, lambda m: m.data, qos=SETPOINT_QOS)
     assert rig.spin_until(lambda: rig.data['stability/spectral_abscissa'], 60)
     process = node.advisor._proc
@@ -211,7 +204,7 @@ def test_a_rejected_atomic_set_changes_nothing(rig):
                                         Parameter('config', value='rgd_stick_slip')])
     assert not res.successful
     assert st.get_parameter('enabled').value is True and st.ctrl.enabled is True
-    node = twin(rig)
+    node = rig.twin()
     res = node.set_parameters_atomically([Parameter('real_time_factor', value=50.0),
                                           Parameter('max_surface_speed_rad_s', value=1.0)])
     assert not res.successful and node.pacer.real_time_factor == 5.0

@@ -199,10 +199,7 @@ def test_the_node_runs_a_scenario_records_it_and_restarts_it_on_request(rig, tmp
     offline = run_timeline(path)    # the same run: tagging bottom at 0.1 m/s bounces hard
     assert node.twin.peek()['hook_load_N'] == pytest.approx(offline['hook_load_N'][-1],
                                                             rel=1e-9)
-    client = rig.probe.create_client(Trigger, '/drill_twin/start_scenario')
-    assert client.wait_for_service(timeout_sec=10)
-    future = client.call_async(Trigger.Request())
-    assert rig.spin_until(lambda: future.done(), 10) and future.result().success
+    assert rig.call(Trigger, '/drill_twin/start_scenario', Trigger.Request()).success
     assert rig.spin_until(lambda: node.driller is not None and not node.driller.done, 10)
     rig.publisher('surface_speed_setpoint').publish(Float64(data=5.0))
     assert rig.spin_until(lambda: node.driller is None, 10)      # the operator took over

@@ -12,15 +12,12 @@ from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.physics.scenario import load_scenario  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
-from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS, TwinNode  # noqa: E402
+from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS  # noqa: E402
 from drill_twin.stability.spectrum import rightmost_roots  # noqa: E402
 
 
 def twin(rig, **params):
-    base = {'real_time_factor': 20.0, 'stability_period_s': 0.0}
-    base.update(params)
-    return rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
-        Parameter(k, value=v) for k, v in base.items()]))
+    return rig.twin(**{'real_time_factor': 20.0, **params})
 
 
 def test_speed_step_follows_the_drive_lag(rig, tmp_path):

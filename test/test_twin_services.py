@@ -7,38 +7,22 @@ import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from geometry_msgs.msg import TwistStamped, WrenchStamped  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from std_srvs.srv import SetBool, Trigger  # noqa: E402
 
 from drill_twin import topics as T  # noqa: E402
 from drill_twin.io.mcap_reader import open_recording  # noqa: E402
-from drill_twin.ros.twin_node import SETPOINT_QOS, TwinNode  # noqa: E402
-
-
-def twin(rig, **params):
-    base = {'real_time_factor': 5.0, 'stability_period_s': 0.0}
-    base.update(params)
-    return rig.add(TwinNode(context=rig.ctx, parameter_overrides=[
-        Parameter(k, value=v) for k, v in base.items()]))
-
-
-def call(rig, srv_type, name, request):
-    client = rig.probe.create_client(srv_type, name)
-    assert rig.spin_until(client.service_is_ready, 10)
-    future = client.call_async(request)
-    assert rig.spin_until(future.done, 10)
-    return future.result()
+from drill_twin.ros.twin_node import SETPOINT_QOS  # noqa: E402
 
 
 def test_reset_returns_to_the_configured_initial_state(rig):
-    node = twin(rig)
+    node = rig.twin()
     initial = node.twin.measurements()
     rig.publisher('surface_speed_setpoint').publish(Float64(data=15.0))
     assert rig.spin_until(lambda: node.twin.time_s > 1.0
                           and node.twin.surface_speed_setpoint == 15.0, 30)
-    result = call(rig, Trigger, '/drill_twin/reset', Trigger.Request())
+    result = rig.call(Trigger, '/drill_twin/reset', Trigger.Request())
     assert result.success, result.message
     after = node.twin.measurements()
     assert after.keys() == initial.keys()
@@ -49,30 +33,30 @@ def test_reset_returns_to_the_configured_initial_state(rig):
 
 
 def test_reset_is_refused_while_recording(rig, tmp_path):
-    node = twin(rig, record_path=str(tmp_path / 'run.mcap'))
+    node = rig.twin(record_path=str(tmp_path / 'run.mcap'))
     assert rig.spin_until(lambda: node.twin.time_s > 0.2, 30)
-    result = call(rig, Trigger, '/drill_twin/reset', Trigger.Request())
+    result = rig.call(Trigger, '/drill_twin/reset', Trigger.Request())
     assert not result.success and 'recording' in result.message
     assert node.twin.time_s > 0.2
 
 
 def test_pause_holds_simulated_time_and_resume_continues(rig):
-    node = twin(rig)
+    node = rig.twin()
     assert rig.spin_until(lambda: node.twin.time_s > 0.3, 30)
-    assert call(rig, SetBool, '/drill_twin/pause', SetBool.Request(data=True)).success
+    assert rig.call(SetBool, '/drill_twin/pause', SetBool.Request(data=True)).success
     held = node.twin.time_s
     rig.listen('surface/torque', Float64, lambda m: m.data)
     # spin to a deadline: 50 publish periods pass on the wall clock, nothing may happen
     assert not rig.spin_until(lambda: node.twin.time_s != held, 0.5)
     assert rig.data['surface/torque'] == []
-    assert call(rig, SetBool, '/drill_twin/pause', SetBool.Request(data=False)).success
+    assert rig.call(SetBool, '/drill_twin/pause', SetBool.Request(data=False)).success
     assert rig.spin_until(lambda: node.twin.time_s > held + 0.2, 30)
     # resumed from where it held: no jump of simulated time
     assert rig.spin_until(lambda: len(rig.data['surface/torque']) > 0, 10)
 
 
 def test_joint_states_equal_the_measurement_topics(rig):
-    twin(rig)
+    rig.twin()
     stamp = lambda m: (m.header.stamp.sec, m.header.stamp.nanosec)  # noqa: E731
     rig.listen('joint_states', JointState, lambda m: (stamp(m), m))
     rig.listen('bit/wrench', WrenchStamped, lambda m: (stamp(m), m))
@@ -96,7 +80,7 @@ def test_joint_states_equal_the_measurement_topics(rig):
 
 
 def test_forward_command_style_commands_set_the_speed(rig):
-    node = twin(rig)
+    node = rig.twin()
     pub = rig.probe.create_publisher(Float64MultiArray, T.COMMANDS_TOPIC, SETPOINT_QOS)
     pub.publish(Float64MultiArray(data=[14.0]))
     assert rig.spin_until(lambda: node.twin.surface_speed_setpoint == 14.0, 10)
@@ -109,7 +93,7 @@ def test_stamped_bit_scalars_equal_the_float64_topics_of_the_same_tick(rig, tmp_
     """Every measurement has a stamped form: the recording (one log time per tick) holds
     bit/penetration and bit/stick_slip beside the Float64 / Bool topics they restate."""
     path = tmp_path / 'run.mcap'
-    node = twin(rig, record_path=str(path))
+    node = rig.twin(record_path=str(path))
     rig.publisher('surface_speed_setpoint').publish(Float64(data=4.0))  # slow: sticks
     assert rig.spin_until(lambda: node.twin.time_s > 15.0, 60)
     rig.nodes.remove(node)
