@@ -297,9 +297,9 @@ def _forget_other_sweep(directory: Path, spec) -> None:
     """A chart's sweep directory is its own cache: one of another chart is replaced (the
     same chart is resumed)."""
     import shutil
-    stored = directory / 'spec.json'
-    if stored.is_file() and json.dumps(json.loads(stored.read_text())['spec'],
-                                       sort_keys=True) != spec.to_json():
+
+    from .sweep.store import holds_other_sweep
+    if holds_other_sweep(directory, spec):
         shutil.rmtree(directory)
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..physics.parameters import ParameterError
 from .spec import DEFAULT_STATS, NONLINEAR_STATS, SweepSpec, parse_axis, parse_distribution
+from .store import stored_spec
 
 __all__ = ['add_parsers', 'cmd_sweep', 'spec_from_args']
 
@@ -77,9 +78,9 @@ def _block_points(args, out: Path) -> int:
     from .evaluate import evaluate_block
     if args.block is not None:
         return args.block
-    stored = out / 'spec.json'
-    if stored.is_file():
-        return int(json.loads(stored.read_text())['spec']['block_points'])
+    stored = stored_spec(out)
+    if stored is not None:
+        return int(stored['block_points'])
     probe = spec_from_args(args, 1)
     evaluate_block(probe, probe.points // 2)   # compiles (or loads) the kernels: not timed
     seconds = 0.0

@@ -78,6 +78,7 @@ def run_sweep(spec: SweepSpec, out, scheduler: str | None = None,
     ``out/sweep.nc`` at the end (also when interrupted).  ``progress(fraction)`` is called
     as blocks arrive."""
     store = SweepStore(out, spec)
+    store.begin_run()
     done = store.done()
     todo = [b for b in range(spec.blocks) if b not in done]
     tick = _progress(progress, len(done), spec.blocks)

@@ -195,8 +195,7 @@ class SweepSpec:
 
     def starts_line(self, flat: int) -> bool:
         """Whether ``flat`` begins a line along ``x`` (a linear sweep reseeds its roots)."""
-        index = np.unravel_index(flat, self.shape)
-        return index[1] == 0 if not self.samples else True
+        return bool(self.samples) or np.unravel_index(flat, self.shape)[1] == 0
 
     @property
     def outputs(self) -> tuple:

@@ -26,37 +26,53 @@ import numpy as np
 from ..physics.parameters import ParameterError
 from .spec import SweepSpec
 
-__all__ = ['SweepStore', 'QUANTILES']
+__all__ = ['SweepStore', 'QUANTILES', 'stored_spec', 'holds_other_sweep']
 
 #: quantiles of a Monte Carlo sweep's statistics over the samples
 QUANTILES = (0.05, 0.5, 0.95)
 
 
+def stored_spec(out) -> dict | None:
+    """The spec mapping kept in ``out/spec.json`` (None if ``out`` holds no sweep)."""
+    meta = Path(out) / 'spec.json'
+    return json.loads(meta.read_text())['spec'] if meta.is_file() else None
+
+
+def holds_other_sweep(out, spec: SweepSpec) -> bool:
+    """Whether ``out`` holds a sweep other than ``spec``."""
+    stored = stored_spec(out)
+    return stored is not None and json.dumps(stored, sort_keys=True) != spec.to_json()
+
+
 class SweepStore:
-    """The result directory of one sweep (see module docstring)."""
+    """The result directory of one sweep (see module docstring).  Reading
+    (:meth:`done`, :meth:`arrays`, :meth:`dataset`) changes nothing; a run that computes
+    starts with :meth:`begin_run`."""
 
     def __init__(self, out, spec: SweepSpec):
         self.out = Path(out)
         self.spec = spec
         self.blocks_dir = self.out / 'blocks'
+        if holds_other_sweep(self.out, spec):
+            raise ParameterError(f'{self.out} holds a different sweep (spec.json): give '
+                                 'another --out, or remove it to start again')
         meta = self.out / 'spec.json'
-        if meta.is_file():
-            stored = json.loads(meta.read_text())
-            if json.dumps(stored['spec'], sort_keys=True) != spec.to_json():
-                raise ParameterError(f'{self.out} holds a different sweep (spec.json): give '
-                                     'another --out, or remove it to start again')
-            self.run = int(stored['runs']) + 1
-        elif self.out.exists() and any(self.out.iterdir()):
+        if not meta.is_file() and self.out.exists() and any(self.out.iterdir()):
             raise ParameterError(f'{self.out} exists and is not a sweep directory')
-        else:
-            self.run = 1
+        self.run = int(json.loads(meta.read_text())['runs']) if meta.is_file() else 0
+
+    def begin_run(self) -> int:
+        """Count a new run (the number its blocks carry) and record the spec."""
+        self.run += 1
         self.blocks_dir.mkdir(parents=True, exist_ok=True)
-        _atomic_write(meta, json.dumps({'spec': json.loads(spec.to_json()),
-                                        'runs': self.run}).encode())
+        _atomic_write(self.out / 'spec.json', json.dumps(
+            {'spec': json.loads(self.spec.to_json()), 'runs': self.run}).encode())
+        return self.run
 
     def done(self) -> set[int]:
         """Blocks with a file (finished in this run or an earlier one)."""
-        return {int(p.stem) for p in self.blocks_dir.glob('*.npz')}
+        return {int(p.stem) for p in self.blocks_dir.glob('*.npz')} \
+            if self.blocks_dir.is_dir() else set()
 
     def save(self, result) -> None:
         """Store one block's result as it arrives."""
