@@ -129,8 +129,9 @@ def stability_chart(raw: dict, x_key: str, xs, y_key: str, ys, workers: int | No
 
 
 def plot_chart(chart: ChartResult, path, title: str = '', ax=None, color='tab:blue',
-               label=None, d_curves: bool = True):
-    """Shade the stable region, draw the D-curves (changes of the unstable-root count)."""
+               label=None, d_curves: bool = True, abscissa: bool = False):
+    """Shade the stable region, draw the D-curves (changes of the unstable-root count);
+    with ``abscissa`` the spectral abscissa as colour beneath (D-curves then white)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -139,14 +140,18 @@ def plot_chart(chart: ChartResult, path, title: str = '', ax=None, color='tab:bl
     if own:
         fig, ax = plt.subplots(figsize=(6.4, 5.0))
     X, Y = np.meshgrid(chart.x, chart.y)
+    if abscissa:
+        mesh = ax.pcolormesh(chart.x, chart.y, chart.abscissa, shading='nearest', cmap='magma')
+        ax.figure.colorbar(mesh, ax=ax, label='spectral abscissa [1/t*]')
     stable = (chart.unstable == 0).astype(float)
-    ax.contourf(X, Y, stable, levels=[0.5, 1.5], colors=[color], alpha=0.35)
+    if stable.any():
+        ax.contourf(X, Y, stable, levels=[0.5, 1.5], colors=[color], alpha=0.35)
     # complex pairs change the count by 2 and real roots by 1: contour the number
     # of crossing *events* so that each D-curve is drawn once
     pairs = (np.where(chart.unstable < 0, 0, chart.unstable) + 1) // 2
     top = max(int(np.nanmax(pairs)), 1)
     cs = ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0),
-                    colors='k', linewidths=0.6) if d_curves else None
+                    colors='w' if abscissa else 'k', linewidths=0.6) if d_curves else None
     if label:
         ax.plot([], [], color=color, lw=6, alpha=0.35, label=label)
     ax.set_xlabel(chart.x_key)

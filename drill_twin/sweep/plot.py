@@ -39,24 +39,15 @@ def plot_sweep(ds, path, title: str = '') -> None:
     plt.close(fig)
 
 
-def _linear(ax, x, y, unstable, abscissa=None):
-    """The spectral abscissa as colour (if given), the stable region shaded, D-curves =
-    changes of the number of crossing events."""
+def _linear(ax, x, y, unstable, abscissa):
+    """The chart's own drawing (:func:`~drill_twin.stability.charts.plot_chart`) over the
+    spectral abscissa; a one-dimensional sweep as a curve of the unstable-root count."""
     if len(y) == 1:
         ax.plot(x, unstable[0], 'o-')
         ax.set_ylabel('unstable roots')
         return
-    X, Y = np.meshgrid(x, y)
-    if abscissa is not None:
-        mesh = ax.pcolormesh(x, y, abscissa, shading='nearest', cmap='magma')
-        ax.figure.colorbar(mesh, ax=ax, label='spectral abscissa [1/t*]')
-    stable = (unstable == 0).astype(float)
-    if stable.any():
-        ax.contourf(X, Y, stable, levels=[0.5, 1.5], colors=['tab:blue'], alpha=0.35)
-    pairs = (np.where(unstable < 0, 0, unstable) + 1) // 2
-    top = max(int(pairs.max()), 1)
-    ax.contour(X, Y, pairs.astype(float), levels=np.arange(0.5, top + 0.5, 1.0), colors='w'
-               if abscissa is not None else 'k', linewidths=0.6)
+    from ..stability.charts import ChartResult, plot_chart
+    plot_chart(ChartResult('', '', x, y, abscissa, unstable), None, ax=ax, abscissa=True)
 
 
 def _field(ds):
