@@ -77,6 +77,14 @@ COMMAND_QOS = qos_profile(T.COMMAND)
 HEALTH_WINDOW_S = 10.0
 
 
+def _reply(response, success: bool, message: str, logger=None):
+    """Fill a Trigger/SetBool response (and log its message if ``logger`` is given)."""
+    response.success, response.message = success, message
+    if logger is not None:
+        logger.info(message)
+    return response
+
+
 class TwinNode(LifecycleNode):
     """The twin node (see module docstring).
 
@@ -355,19 +363,14 @@ class TwinNode(LifecycleNode):
         if self.twin is None:
             return self._unconfigured(response)
         if self.recorder is not None:
-            response.success = False
-            response.message = ('reset refused while recording: the recording\'s simulated '
-                                'log time would restart; stop the node to end the file')
-            return response
+            return _reply(response, False, 'reset refused while recording: the recording\'s '
+                          'simulated log time would restart; stop the node to end the file')
         self.twin = DigitalTwin(self.twin.scenario, **self._twin_args)
         self._start_run()
         if self.timeline is not None:
             self._start_scenario()
-        response.success = True
-        response.message = (f'reset to t = 0 s, surface speed '
-                            f'{self.twin.surface_speed_setpoint:g} rad/s')
-        self.get_logger().info(response.message)
-        return response
+        return _reply(response, True, f'reset to t = 0 s, surface speed '
+                      f'{self.twin.surface_speed_setpoint:g} rad/s', self.get_logger())
 
     def _on_pause(self, request, response):
         """``data: true`` holds simulated time (nothing is published); ``false`` resumes from
@@ -375,23 +378,17 @@ class TwinNode(LifecycleNode):
         if self.twin is None:
             return self._unconfigured(response)
         if request.data == self.paused:
-            response.success = True
-            response.message = f"already {'paused' if self.paused else 'running'}"
-            return response
+            return _reply(response, True, f"already {'paused' if self.paused else 'running'}")
         self.paused = bool(request.data)
         if not self.paused:
             self._resume_pacing()
-        response.success = True
-        response.message = (f"{'paused' if self.paused else 'running'} at t = "
-                            f'{self.twin.time_s:.3f} s')
-        self.get_logger().info(response.message)
-        return response
+        return _reply(response, True, f"{'paused' if self.paused else 'running'} at t = "
+                      f'{self.twin.time_s:.3f} s', self.get_logger())
 
     @staticmethod
     def _unconfigured(response):
-        response.success = False
-        response.message = 'not configured: configure the node first (ros2 lifecycle set)'
-        return response
+        return _reply(response, False, 'not configured: configure the node first (ros2 '
+                      'lifecycle set)')
 
     # --- operations scenarios ----------------------------------------------------------
     def _start_scenario(self):
@@ -403,13 +400,9 @@ class TwinNode(LifecycleNode):
         if self.twin is None:
             return self._unconfigured(response)
         if self.timeline is None:
-            response.success = False
-            response.message = 'no scenario: start the node with -p scenario:=FILE'
-            return response
+            return _reply(response, False, 'no scenario: start the node with -p scenario:=FILE')
         self._start_scenario()
-        response.success = True
-        response.message = f'scenario {self.timeline.path.name} started'
-        return response
+        return _reply(response, True, f'scenario {self.timeline.path.name} started')
 
     def _driller_apply(self, name, value):
         if name == 'surface_speed_setpoint':
