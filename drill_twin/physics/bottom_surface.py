@@ -39,9 +39,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .hermite import hermite, hermite_slope
+from .jit import kernel_jit
 
 __all__ = ['new_surface', 'fill_steady', 'fill_flat', 'write_step', 'read_surface',
            'S_CUR', 'S_PREV', 'S_ANGLE', 'S_TIME', 'S_PREV_TIME', 'S_RES', 'nodes_for']
@@ -111,7 +111,7 @@ def fill_flat(surf, depth: float, time: float = 0.0):
     surf[S_RES] = 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def _crossing(p0, p1, dp0, dp1, h, target):
     """Fraction s in [0, 1] of the step where the Hermite angle equals ``target``
     (safeguarded Newton; the angle never decreases), and the residual."""
@@ -136,7 +136,7 @@ def _crossing(p0, p1, dp0, dp1, h, target):
     return s, f
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
     """Let every blade write the nodes it swept while the bit went from angle ``p0`` (time
     ``t0``, position ``u0``, velocities ``du0, dp0``) to ``p1`` (``t1`` ...).  Returns the
@@ -167,7 +167,7 @@ def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
     return written
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def read_surface(surf, geom, phi, offset, out):
     """The rock ahead of the blade at ``offset`` when the bit angle is ``phi``.
 

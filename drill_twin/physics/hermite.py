@@ -4,12 +4,12 @@ at the fraction ``s`` in [0, 1] of the step.  Shared by the bottom-hole surface 
 angles, heights) and the velocity time history of model III."""
 from __future__ import annotations
 
-from numba import njit
+from .jit import kernel_jit
 
 __all__ = ['hermite', 'hermite_slope']
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def hermite(y0, y1, d0, d1, h, s):
     """Value at ``s`` of the cubic with values ``y0, y1`` and slopes ``d0, d1`` (per unit
     of the step variable) at the ends of a step of length ``h``."""
@@ -19,7 +19,7 @@ def hermite(y0, y1, d0, d1, h, s):
             + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * h * d1)
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def hermite_slope(y0, y1, d0, d1, h, s):
     """d/ds of :func:`hermite` (s in [0, 1])."""
     s2 = s * s

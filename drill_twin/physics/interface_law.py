@@ -42,7 +42,7 @@ threshold is involved anywhere.
 """
 from __future__ import annotations
 
-from numba import njit
+from .jit import kernel_jit
 
 __all__ = ['ANG_SLIP', 'ANG_STICK', 'AX_DOWN', 'AX_UP', 'AX_STUCK', 'MD_ANG', 'MD_AX',
            'MD_CONTACT', 'G_ANG', 'G_AX_LOW', 'G_AX_HIGH', 'G_CONTACT', 'contact_forces',
@@ -58,7 +58,7 @@ G_ANG, G_AX_LOW, G_AX_HIGH, G_CONTACT = 0, 1, 2, 3
 _BIG = 1e300
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def contact_forces(depths, weights, mode, lam):
     """Cutting force ``W_c = Σ_contact w_b d_b`` and the wear-flat capacity
     ``λ Σ_contact w_b`` (``w_b`` blades per group)."""
@@ -71,31 +71,31 @@ def contact_forces(depths, weights, mode, lam):
     return cut, lam * blades
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def sliding_wear_flat(ax_mode, capacity):
     """W_f while the bit slides axially: the whole capacity moving down, none moving up."""
     return capacity if ax_mode == AX_DOWN else 0.0
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def stuck_wear_flat(w_required, cut, capacity):
     """W_f of an axially stuck bit: the reaction the balance asks, within [0, capacity]."""
     return min(max(w_required - cut, 0.0), capacity)
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def bit_weight(cut, wear_flat):
     """Weight on bit W = W_c + W_f (eq. 2.2.4)."""
     return cut + wear_flat
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def bit_torque(cut, wear_flat, beta):
     """Torque on bit T = W_c + β W_f (eq. 2.2.5, units C)."""
     return cut + beta * wear_flat
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def switching(mode, omega_bit, v_bit, depths, cut, capacity, beta, w_required, t_required,
               torsion, g):
     """Fill ``g`` (size 3 + blade groups) with the switching functions of the mode (the
@@ -134,7 +134,7 @@ def switching(mode, omega_bit, v_bit, depths, cut, capacity, beta, w_required, t
             g[G_CONTACT + b] = depths[b] if mode[MD_CONTACT + b] == 1 else -depths[b]
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def transition(k, mode, w_required):
     """Apply the rule of switching function ``k`` that has just reached zero.
 

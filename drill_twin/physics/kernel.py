@@ -54,6 +54,7 @@ from .interface_law import (
     switching,
     transition,
 )
+from .jit import kernel_jit
 from .time_history import (
     N_SIGNALS,
     S_BIT_ANGULAR_SPEED,
@@ -190,7 +191,7 @@ def pack_chain(chain) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def _solve(ch, r, out):
     """Solve the tridiagonal system M out = r with the precomputed Thomas factors."""
     n = r.size
@@ -206,7 +207,7 @@ def _solve(ch, r, out):
         out[i] -= cp[i] * out[i + 1]
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def _internal_force(ch, q, qd, out):
     """out = -(C qd + K q) for a tridiagonal chain."""
     n = q.size
@@ -219,7 +220,7 @@ def _internal_force(ch, q, qd, out):
         out[i] = -s
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def bit_totals(tau, x, top, na, nt):
     """Total bit axial position/velocity and angle/speed (U, V, Φ, Ω), dimensionless."""
     ub = top.upsilon_o * tau + x[na - 1]
@@ -235,7 +236,13 @@ def bit_totals(tau, x, top, na, nt):
 
 
 class Work(NamedTuple):
-    """Scratch arrays of one integration (allocated once per :func:`advance` call)."""
+    """Named views of the scratch array of one integration (:func:`_work`): the RK4 stages,
+    the step's end and trial states, the aux values, the chain solves, the blade depths,
+    the switching functions and the delayed signals.
+
+    The kernel's non-inlined functions take the one scratch array and name its rows with
+    :func:`_views` (free: views are pointer arithmetic); a tuple of nineteen arrays passed
+    by value through every call cost more than the right-hand side of a small model."""
 
     k1: np.ndarray
     k2: np.ndarray
@@ -258,16 +265,37 @@ class Work(NamedTuple):
     slopes: np.ndarray
 
 
+_WORK_ROWS = len(Work._fields)
+_SIZES_ROW = _WORK_ROWS      # the last row holds n, na, nt and the blade groups
+
+
 @njit(cache=True, nogil=True)
 def _work(n, na, nt, groups):
-    return Work(np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                np.empty(n), np.zeros(N_AUX), np.empty(na), np.empty(na), np.empty(nt),
-                np.empty(nt), np.zeros(groups), np.zeros(3), np.empty(3 + groups),
-                np.empty(3 + groups), np.zeros(N_SIGNALS), np.zeros(N_SIGNALS),
-                np.zeros(N_SIGNALS))
+    """The scratch array (one row per :class:`Work` field, then the sizes)."""
+    width = max(n, N_AUX, 3 + groups, N_SIGNALS, 4)
+    work = np.zeros((_WORK_ROWS + 1, width))
+    work[_SIZES_ROW, 0] = n
+    work[_SIZES_ROW, 1] = na
+    work[_SIZES_ROW, 2] = nt
+    work[_SIZES_ROW, 3] = groups
+    return work
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
+def _views(work):
+    """The :class:`Work` views of the scratch array."""
+    n = int(work[_SIZES_ROW, 0])
+    na = int(work[_SIZES_ROW, 1])
+    nt = int(work[_SIZES_ROW, 2])
+    groups = int(work[_SIZES_ROW, 3])
+    return Work(work[0, :n], work[1, :n], work[2, :n], work[3, :n], work[4, :n], work[5, :n],
+                work[6, :n], work[7, :N_AUX], work[8, :na], work[9, :na], work[10, :nt],
+                work[11, :nt], work[12, :groups], work[13, :3], work[14, :3 + groups],
+                work[15, :3 + groups], work[16, :N_SIGNALS], work[17, :N_SIGNALS],
+                work[18, :N_SIGNALS])
+
+
+@kernel_jit(inline='always')
 def _depths(tau, ub, phb, law, surf, geom, w):
     """Depth of cut of every blade group (and the mean delay / worst residual in aux)."""
     delay = 0.0
@@ -281,10 +309,17 @@ def _depths(tau, ub, phb, law, surf, geom, w):
     w.aux[X_RES] = res
 
 
-@njit(cache=True, nogil=True)
-def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
+@kernel_jit
+def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work):
     """Right-hand side of the first-order system in a fixed interface mode; fills ``dx`` and
     the aux values (forces, reactions the law checks, delay)."""
+    w = _views(work)
+    _rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+
+
+@kernel_jit(inline='always')
+def _rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
+    """:func:`rhs`, inlined where it is called every stage (RK4, switching functions)."""
     na = A.shape[1]
     nt = T.shape[1]
     d = 2 * na + 2 * nt
@@ -320,7 +355,7 @@ def rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w):
         w.aux[X_TREQ] = w.aux[X_T]
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     na = A.shape[1]
     nt_off = x.size - N_DRIVE_STATES  # the drive block starts at 2 na + 2 nt
@@ -356,7 +391,7 @@ def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     w.aux[X_WREQ] = w_req
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def surface_torque_perturbation(x, T, na):
     """Perturbation of the torque in the string's first element (a free top node: the
     motor or the Soft-Torque drive), units C."""
@@ -365,7 +400,7 @@ def surface_torque_perturbation(x, T, na):
     return -T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na):
     """Motor torque of the PI top drive (total, units C) and the derivatives of its
     integral ϑ_p and torque reference T_ref (docs/control.md, eqs C.1-C.4): sensors
@@ -389,7 +424,7 @@ def _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na):
     return motor
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit(inline='always')
 def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot, dx, w, na):
     nt = T.shape[1]
     d = 2 * na + 2 * nt
@@ -423,10 +458,11 @@ def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot
     w.aux[X_TREQ] = t_req
 
 
-@njit(cache=True, nogil=True)
-def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w, g):
+@kernel_jit
+def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work, g):
     """Evaluate the right-hand side (for the reactions) and the switching functions."""
-    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+    w = _views(work)
+    _rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
     na = A.shape[1]
     nt = T.shape[1]
     ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
@@ -438,25 +474,26 @@ def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w,
     return gmin
 
 
-@njit(cache=True, nogil=True)
-def _rk4(tau, x, h, k1, mode, law, top, inp, A, T, surf, geom, th, thm, out, w):
+@kernel_jit
+def _rk4(tau, x, h, k1, mode, law, top, inp, A, T, surf, geom, th, thm, out, work):
     """One classical RK4 step of size ``h`` from (tau, x) with ``k1 = f(tau, x)``."""
+    w = _views(work)
     n = x.size
     tmp = w.tmp
     for i in range(n):
         tmp[i] = x[i] + 0.5 * h * k1[i]
-    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k2, w)
+    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k2, work)
     for i in range(n):
         tmp[i] = x[i] + 0.5 * h * w.k2[i]
-    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k3, w)
+    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k3, work)
     for i in range(n):
         tmp[i] = x[i] + h * w.k3[i]
-    rhs(tau + h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k4, w)
+    rhs(tau + h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k4, work)
     for i in range(n):
         out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * w.k2[i] + 2.0 * w.k3[i] + w.k4[i])
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def _interpolate(x0, x1, f0, f1, h, s, out):
     """The step's dense output: cubic Hermite of the state on ``x0, x1`` and the
     derivatives ``f0, f1`` at its ends, at fraction ``s``."""
@@ -470,13 +507,14 @@ def _interpolate(x0, x1, f0, f1, h, s, out):
         out[i] = a0 * x0[i] + b0 * f0[i] + a1 * x1[i] + b1 * f1[i]
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, geom, th,
-            thm, w):
+            thm, work):
     """Fraction of the step at which the smallest switching function reaches zero: the
     Illinois method on the step's interpolant (``w.x_end`` is the state at the end)."""
+    w = _views(work)
     s_lo = 0.0
-    g_lo = _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, w,
+    g_lo = _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, work,
                          w.g_lo)
     s_hi = 1.0
     g_hi = g_end
@@ -489,7 +527,7 @@ def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, g
             s = 0.5 * (s_lo + s_hi)
         _interpolate(x, w.x_end, k_start, k_end, h, s, w.x_try)
         gs = _switching_at(tau + s * h, w.x_try, mode, law, top, inp, A, T, surf, geom, th,
-                           thm, w.tmp, w, w.g)
+                           thm, w.tmp, work, w.g)
         if gs >= 0.0:
             s_lo, g_lo = s, gs
             if side == -1:
@@ -503,9 +541,9 @@ def _locate(tau, x, h, k_start, k_end, g_end, mode, law, top, inp, A, T, surf, g
     return s_hi
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def _commit(tau0, x0, f0, tau1, x1, f1, law, top, T, surf, geom, th, thm, counters, na, nt,
-            start, w):
+            start, work):
     """After an accepted (sub)step: the blades write the surface they swept, and the bit
     velocities go into the time history (model III).  ``start[4] == 1``: the step began
     at an instantaneous perturbation; the rock it swept is written from the bit motion
@@ -519,14 +557,15 @@ def _commit(tau0, x0, f0, tau1, x1, f1, law, top, T, surf, geom, th, thm, counte
     counters[C_WRITES] += write_step(surf, geom, law.offsets, tau0, tau1, u0, u1, p0, p1,
                                      v0, v1, o0, o1)
     if top.z_a > 0.0 or top.z_t > 0.0 or top.t_delay > 0.0:
-        _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, w)
+        _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, work)
 
 
-@njit(cache=True, nogil=True)
-def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, w):
+@kernel_jit
+def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, work):
     """Append the delayed signals (time_history.SIGNALS) at the end of a step: the
     surface torque's slope is that of the first element's torque, from the state slope
     ``f1``."""
+    w = _views(work)
     ib = 2 * na + 2 * nt - 1 if nt > 0 else 2 * na + 2 * nt + 1
     values, slopes = w.values, w.slopes
     values[S_BIT_AXIAL_SPEED], slopes[S_BIT_AXIAL_SPEED] = v1, f1[2 * na - 1]
@@ -539,7 +578,7 @@ def _push_history(th, thm, tau1, x1, f1, v1, o1, top, T, na, nt, w):
     push_sample(th, thm, tau1, values, slopes)
 
 
-@njit(cache=True, nogil=True, inline='always')
+@kernel_jit(inline='always')
 def _any_contact(mode, groups):
     for b in range(groups):
         if mode[MD_CONTACT + b] == 1:
@@ -547,10 +586,11 @@ def _any_contact(mode, groups):
     return False
 
 
-@njit(cache=True, nogil=True)
-def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w):
+@kernel_jit
+def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, work):
     """Choose the interface mode consistent with the state after an event (called with the
     velocity that crossed zero already set exactly to zero)."""
+    w = _views(work)
     na = A.shape[1]
     nt = T.shape[1]
     dx = w.k1
@@ -559,7 +599,7 @@ def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
         ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
         mode[MD_ANG] = ANG_SLIP
         mode[MD_AX] = AX_UP if vb < 0.0 else AX_DOWN
-        rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
+        rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, work)
         return
     for _ in range(4):
         old_ang = mode[MD_ANG]
@@ -578,11 +618,11 @@ def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
                 vb = 0.0
             if vb == 0.0:
                 mode[MD_AX] = AX_STUCK
-                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work)
                 if w.aux[X_WREQ] < 0.0:
                     mode[MD_AX] = AX_UP
             # release check of the angular stick
-            rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+            rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work)
             cut, cap = w.aux[X_CUT], w.aux[X_CAP]
             w_f = stuck_wear_flat(w.aux[X_WREQ], cut, cap) if mode[MD_AX] == AX_STUCK \
                 else 0.0
@@ -591,7 +631,7 @@ def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
         if mode[MD_ANG] == ANG_SLIP:
             if vb == 0.0:
                 mode[MD_AX] = AX_STUCK
-                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
+                rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work)
                 w_f = w.aux[X_WREQ] - w.aux[X_CUT]
                 if _any_contact(mode, law.offsets.size):  # some blade on the rock
                     if w_f < 0.0:
@@ -606,12 +646,13 @@ def _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
                 mode[MD_AX] = AX_UP
         if mode[MD_ANG] == old_ang and mode[MD_AX] == old_ax:
             break
-    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, work)
 
 
-@njit(cache=True, nogil=True)
-def _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w):
+@kernel_jit
+def _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, work):
     """At a located event: the rule of the violated switching function, then settle."""
+    w = _views(work)
     na = A.shape[1]
     nt = T.shape[1]
     g = w.g
@@ -624,26 +665,27 @@ def _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, co
         x[2 * na + 2 * nt - 1] = -top.omega_o
     if stop_descent:
         x[2 * na - 1] = -top.upsilon_o
-    _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, w)
+    _settle(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters, work)
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, tau_arr,
-          start, w):
+          start, work):
     """Advance one step of size ``h``, cut at the events inside it (at most 20: a 20th is
     accepted, no Zeno loop).  ``w.k1`` holds f(tau, x) on entry and on exit."""
+    w = _views(work)
     na = A.shape[1]
     nt = T.shape[1]
     n = x.size
     remaining = h
     for sub in range(20):
         _rk4(tau, x, remaining, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm,
-             w.x_end, w)
+             w.x_end, work)
         gmin = _switching_at(tau + remaining, w.x_end, mode, law, top, inp, A, T, surf, geom,
-                             th, thm, w.k4, w, w.g)
+                             th, thm, w.k4, work, w.g)
         if gmin >= 0.0 or sub == 19:
             _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, T, surf, geom, th,
-                    thm, counters, na, nt, start, w)
+                    thm, counters, na, nt, start, work)
             if mode[MD_ANG] == ANG_STICK:
                 tau_arr[1] += remaining
             for i in range(n):
@@ -654,13 +696,13 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
         for i in range(n):
             w.k3[i] = w.k4[i]  # f at the step end, for the interpolant
         s = _locate(tau, x, remaining, w.k1, w.k3, gmin, mode, law, top, inp, A, T, surf,
-                    geom, th, thm, w)
+                    geom, th, thm, work)
         dt = s * remaining
-        _rk4(tau, x, dt, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm, w.x_end, w)
+        _rk4(tau, x, dt, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm, w.x_end, work)
         _switching_at(tau + dt, w.x_end, mode, law, top, inp, A, T, surf, geom, th, thm,
-                      w.k4, w, w.g)
+                      w.k4, work, w.g)
         _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, T, surf, geom, th, thm,
-                counters, na, nt, start, w)
+                counters, na, nt, start, work)
         for i in range(n):
             x[i] = w.x_end[i]
         if mode[MD_ANG] == ANG_STICK:
@@ -669,19 +711,20 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
         remaining -= dt
         counters[C_EVENTS] += 1
         _apply_transition(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
-                          w)
+                          work)
         if remaining <= 1e-12 * h:
             break
     return tau
 
 
-@njit(cache=True, nogil=True)
-def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th, thm, w, row):
+@kernel_jit
+def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th, thm, work, row):
     """Fill one record row (:data:`RECORD_CHANNELS`) from the current state."""
+    w = _views(work)
     na = A.shape[1]
     nt = T.shape[1]
     d = 2 * na + 2 * nt
-    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, w)
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, work)
     ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
     row[0] = tau
     row[1] = vb
@@ -735,9 +778,9 @@ def snapshot(tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, row):
     """The record row of the current state, without advancing."""
     na = A.shape[1]
     nt = T.shape[1]
-    w = _work(x.size, na, nt, law.offsets.size)
+    work = _work(x.size, na, nt, law.offsets.size)
     _write_record(tau_arr[0], tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
-                  w, row)
+                  work, row)
 
 
 @njit(cache=True, nogil=True)
@@ -757,14 +800,15 @@ def advance(n_steps, h, tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, t
     nt = T.shape[1]
     n = x.size
     d = 2 * na + 2 * nt
-    w = _work(n, na, nt, law.offsets.size)
+    work = _work(n, na, nt, law.offsets.size)
+    w = _views(work)
     tau = tau_arr[0]
     if top.drive_tau <= 0.0:  # stiff speed drive: the motor speed is the command
         x[d + 1] = inp[IN_OMEGA_CMD] - top.omega_o
-    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, w)
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.k1, work)
     for _ in range(n_steps):
         tau = _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
-                    tau_arr, start, w)
+                    tau_arr, start, work)
         counters[C_STEPS] += 1
         for i in range(n):
             if not np.isfinite(x[i]):
@@ -776,7 +820,7 @@ def advance(n_steps, h, tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, t
                 and n_rec[0] < record.shape[0]:
             r = n_rec[0]
             _write_record(tau, tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
-                          w, record[r])
+                          work, record[r])
             if state_record.shape[0] > r:
                 for i in range(n):
                     state_record[r, i] = x[i]

@@ -18,9 +18,9 @@ rows S+1..2S the slopes; ``meta = [start, count, overflows]``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .hermite import hermite
+from .jit import kernel_jit
 
 __all__ = ['new_time_history', 'push_sample', 'sample_at_time', 'SIGNALS',
            'S_BIT_AXIAL_SPEED', 'S_BIT_ANGULAR_SPEED', 'S_MOTOR_SPEED', 'S_SURFACE_TORQUE',
@@ -37,7 +37,7 @@ def new_time_history(capacity: int):
     return np.zeros((1 + 2 * N_SIGNALS, max(int(capacity), 4))), np.zeros(3, np.int64)
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def push_sample(hist, meta, t, values, slopes):
     """Append a sample at ``t`` (every signal's value and slope); the oldest is
     overwritten when full, and a sample at the same instant (an event) replaces the
@@ -63,7 +63,7 @@ def push_sample(hist, meta, t, values, slopes):
         hist[1 + n_sig + k, idx] = slopes[k]
 
 
-@njit(cache=True, nogil=True)
+@kernel_jit
 def sample_at_time(hist, meta, t, out):
     """Every signal at time ``t`` into ``out`` (cubic Hermite in time).  Times before the
     oldest sample return its values and count an overflow; times after the newest return

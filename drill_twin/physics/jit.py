@@ -1,0 +1,32 @@
+"""The compiler settings of the time-integration kernel, in one place.
+
+Every function of the stepping path (right-hand side, RK4 stage, event location, the
+interface law, the bottom-hole surface, the delayed-signal history) is compiled by
+:func:`kernel_jit`: numba ``njit`` with the on-disk cache, ``nogil`` (the ROS node and
+the sweep workers run the kernel beside other threads) and **without numba's reference
+counting** (``_nrt=False``).
+
+Why no reference counting: numba keeps a reference count on every array it passes or
+takes from a tuple, an atomic increment and decrement per array per call.  The kernel's
+functions take 10-30 arrays each and are called five times per step, so on a one-degree-of-
+freedom model those atomic operations were two thirds of the step's time (measured with
+``perf``: ``NRT_incref``/``NRT_decref`` under ``rhs``).  The stepping functions never
+allocate, return or keep an array — they only read and write the arrays their caller
+owns — so they need no counts: the arrays are borrowed for the duration of the call.
+The functions that allocate (the scratch arrays of :func:`drill_twin.physics.kernel.advance`
+and ``snapshot``) keep the runtime and own the arrays while the kernel runs.  A kernel
+function that tried to allocate would not compile (numba refuses), so the rule is
+enforced, not just documented.
+"""
+from __future__ import annotations
+
+from numba import njit
+
+__all__ = ['kernel_jit']
+
+
+def kernel_jit(func=None, *, inline: str = 'never'):
+    """Decorate a stepping-path function: ``njit(cache=True, nogil=True, _nrt=False)``
+    (``inline='always'`` for numba-level inlining of tiny helpers)."""
+    jit = njit(cache=True, nogil=True, inline=inline, _nrt=False)
+    return jit if func is None else jit(func)
