@@ -48,7 +48,7 @@ def stable_step(model, safety=0.8):
 
 
 def rtf(overrides, sim_seconds, step=None):
-    sc = load_scenario('benchmark_fem', overrides)
+    sc = load_scenario('benchmark_fem', overrides + ['simulation.time_step=auto'])
     h = step or stable_step(sc.model)
     sim = Simulation.from_scenario(sc, time_step=h)
     sim.advance(10)                                     # JIT / cache load out of the timing
@@ -73,7 +73,7 @@ def _stick_slip_stats(overrides, h, seconds=600.0, stats_from=200.0):
                      s['rop_mean']])
 
 
-def converged_step(overrides, ladder=(0.08, 0.04, 0.02), points=(12.57, 6.0), smoke=False):
+def converged_step(overrides, ladder=(0.06, 0.04, 0.02), points=(12.57, 6.0), smoke=False):
     """The largest step of ``ladder`` whose stick-slip statistics (stick fraction, bit speed
     max and min, mean ROP) agree within 1 % with RK4 at half that step, at every surface
     speed of ``points`` [rad/s] (one without and one with sticking).  A statistic that is 0
@@ -96,16 +96,16 @@ def converged_step(overrides, ladder=(0.08, 0.04, 0.02), points=(12.57, 6.0), sm
 
 def bench_rtf(smoke):
     s = 0.05 if smoke else 1.0
-    # RGD: at its converged step (largest of 0.08, 0.04, 0.02 t* whose statistics agree
+    # RGD: at its converged step (largest of 0.06, 0.04, 0.02 t* whose statistics agree
     # within 1 % with half the step); the other lumped models keep the FEM default 5e-3
     h_rgd, diff_rgd = converged_step(['model.type=rgd'], smoke=smoke)
     cases = [('RGD', ['model.type=rgd'], 600 * s, 1e4),
              ('RGD-2', ['model.type=coupled_chain', 'model.n=2'], 300 * s, None),
              ('10-DOF chain (RGD-10)', ['model.type=coupled_chain', 'model.n=10'], 120 * s,
               None),
-             ('FEM 58 (thesis benchmark)', [], 120 * s, 300.0),
-             ('FEM 256', ['model.elements=256', 'model.bha_elements=43'], 10 * s, None),
-             ('FEM 1024', ['model.elements=1024', 'model.bha_elements=171'], 2 * s, 1.0)]
+             ('FEM 58 (thesis benchmark)', [], 120 * s, 1000.0),
+             ('FEM 256', ['model.elements=256', 'model.bha_elements=43'], 10 * s, 300.0),
+             ('FEM 1024', ['model.elements=1024', 'model.bha_elements=171'], 2 * s, 50.0)]
     for name, ov, sim_s, target in cases:
         drives = ['speed', 'soft_torque'] if 'FEM' in name else ['speed']
         for drive in drives:
@@ -138,8 +138,12 @@ def bench_scaling(smoke):
         f'{worst:.0%}', 'worst misfit', 'linear: < 15 %', worst < 0.15,
         f'a = {a * 1e6:.2f} us fixed, b = {b * 1e9:.1f} ns per element; '
         f'log-log slope {sizes[big[0]]}..{sizes[-1]}: {e_step:.2f}')
-    row('scaling', 'cost per simulated second vs elements', f'{e_sim:.2f}', 'exponent', '',
-        None, 'step ~ 1/N (RK4 stability, the FEM stiffest mode ~ N)')
+    e_64 = np.polyfit(np.log([n for n in sizes if n >= 64]),
+                      np.log([p for n, p in zip(sizes, per_sim) if n >= 64]), 1)[0]
+    row('scaling', f'cost per simulated second vs elements ({max(64, sizes[0])}..{sizes[-1]})',
+        f'{e_64:.2f}', 'exponent', '<= 1.1', bool(e_64 <= 1.1),
+        f'{sizes[0]}..{sizes[-1]}: {e_sim:.2f}; explicit RK4: step ~ 1/N (the FEM stiffest '
+        'mode ~ N), no accuracy-step integrator yet')
 
 
 # --- 3: peers ------------------------------------------------------------------------

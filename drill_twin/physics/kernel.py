@@ -476,19 +476,19 @@ def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, wo
 
 @kernel_jit
 def _rk4(tau, x, h, k1, mode, law, top, inp, A, T, surf, geom, th, thm, out, work):
-    """One classical RK4 step of size ``h`` from (tau, x) with ``k1 = f(tau, x)``."""
+    """One classical RK4 step of size ``h`` from (tau, x) with ``k1 = f(tau, x)``: stages
+    k2, k3, k4 at (tau + h/2, x + h/2 k1), (tau + h/2, x + h/2 k2), (tau + h, x + h k3),
+    through one call site of the inlined right-hand side."""
     w = _views(work)
     n = x.size
     tmp = w.tmp
-    for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * k1[i]
-    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k2, work)
-    for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * w.k2[i]
-    rhs(tau + 0.5 * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k3, work)
-    for i in range(n):
-        tmp[i] = x[i] + h * w.k3[i]
-    rhs(tau + h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, w.k4, work)
+    stages = (k1, w.k2, w.k3, w.k4)
+    for stage in range(1, 4):
+        c = 1.0 if stage == 3 else 0.5
+        previous = stages[stage - 1]
+        for i in range(n):
+            tmp[i] = x[i] + c * h * previous[i]
+        _rhs(tau + c * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, stages[stage], w)
     for i in range(n):
         out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * w.k2[i] + 2.0 * w.k3[i] + w.k4[i])
 
