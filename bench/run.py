@@ -711,12 +711,46 @@ def write_markdown(path):
     Path(path).write_text('\n'.join(lines) + '\n')
 
 
+def update_markdown(path, stale=()):
+    """Merge this run's rows into an existing table (``--only ... --update``): a row with
+    the same section and item is replaced, a new one goes after its section's last row;
+    rows whose item starts with one of ``stale`` (renamed items) are dropped."""
+    lines = Path(path).read_text().splitlines()
+    fresh = {(str(r[0]), str(r[1])): '| ' + ' | '.join(str(c).replace('|', '\\|') for c in r)
+             + ' |' for r in ROWS}
+
+    def key(line):
+        cells = [c.strip() for c in line.strip('|').split('|')]
+        return (cells[0], cells[1]) if len(cells) > 1 else None
+    out, done = [], set()
+    for line in lines:
+        k = key(line) if line.startswith('| ') else None
+        if k in fresh:
+            out.append(fresh[k])
+            done.add(k)
+        elif k and any(k[1].startswith(p) for p in stale) and k not in fresh:
+            continue
+        else:
+            out.append(line)
+    for k, text in fresh.items():
+        if k in done:
+            continue
+        last = max((i for i, line in enumerate(out) if line.startswith('| ')
+                    and key(line) and key(line)[0] == k[0]), default=len(out) - 1)
+        out.insert(last + 1, text)
+    Path(path).write_text('\n'.join(out) + '\n')
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument('--smoke', action='store_true', help='tiny sizes (test suite)')
     ap.add_argument('--out', default=str(ROOT / 'docs' / 'benchmarks.md'))
     ap.add_argument('--only', nargs='+', help='run only these parts (function names without '
                     'bench_), e.g. realtime_under_load; the markdown is not written')
+    ap.add_argument('--update', action='store_true', help='with --only: merge the rows into '
+                    'the existing markdown table')
+    ap.add_argument('--stale', nargs='*', default=[], help='with --update: drop rows whose '
+                    'item starts with these texts (renamed items)')
     args = ap.parse_args()
     print(f'{"section":<10} {"item":<46} {"value":>12} {"unit":<12} {"target":<14} '
           f'{"status":<8} note')
@@ -730,6 +764,9 @@ def main():
     if not args.smoke and not args.only:
         write_markdown(args.out)
         print(f'\nwritten {args.out}')
+    elif args.only and args.update:
+        update_markdown(args.out, args.stale)
+        print(f'\nupdated {args.out}')
     return 0
 
 
