@@ -26,10 +26,12 @@ PHYSICS_DIR = Path(__file__).resolve().parent
 
 def source_key(folder: Path = PHYSICS_DIR) -> str:
     """16 hex digits of SHA-256 over the names and contents of the ``folder/*.py`` files
-    that mention numba."""
+    that compile code: those that mention numba or the kernel's decorator ``kernel_jit``
+    (:mod:`drill_twin.physics.jit`)."""
     digest = hashlib.sha256()
     for path in sorted(Path(folder).glob('*.py')):
-        if b'numba' not in path.read_bytes():
+        text = path.read_bytes()
+        if b'numba' not in text and b'kernel_jit' not in text:
             continue
         digest.update(path.name.encode())
         digest.update(b'\0')
