@@ -131,7 +131,8 @@ def test_a_torsional_pulse_travelling_up_the_pipe_is_absorbed_by_z_torque(contro
     of the incident energy with Z-Torque, > 80 % with the stiff loop."""
     sc = load_scenario('rig_fem', [f'drive.controller={controller}',
                                    'drill_string.pipe_length_m=6000', 'model.elements=600',
-                                   'model.bha_elements=20', 'simulation.time_step=auto'])
+                                   'model.bha_elements=20', 'simulation.time_step=auto',
+                                   'simulation.reduction=none'])   # the full chain's nodes
     model, s = sc.model, sc.scales
     sim = Simulation(model, sc.groups, sc.time_step)
     nt = model.torsional.n

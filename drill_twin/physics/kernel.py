@@ -143,8 +143,15 @@ N_RECORD = len(RECORD_CHANNELS)
 X_W, X_T, X_CUT, X_CAP, X_WREQ, X_TREQ, X_DELAY, X_RES, X_DEPTH, X_MOTOR = range(10)
 N_AUX = 10
 # packed chain rows ----------------------------------------------------------------------
-CH_M, CH_C, CH_K, CH_CP, CH_INV, CH_Z = 0, 3, 6, 9, 10, 11
-N_CHAIN_ROWS = 12
+# tridiagonal chain: the three rows (lower, diag, upper) of M, C, K, the Thomas factors and
+# z = M⁻¹ e_last; arrow chain (Craig–Bampton, :mod:`~drill_twin.physics.reduction`): the top
+# row, the diagonal and the bit row of M, C, K, the inverse of the boundary Schur complement
+# (CH_CP[0:4]), the inverse modal masses and z.  CH_FORM[0] says which; for an arrow chain
+# CH_FORM[1:3] hold the physical first element's stiffness and damping couplings K01, C01
+# and CH_NODE1 the physical DOF 1 in chain coordinates (the torque at the top of the string).
+CH_M, CH_C, CH_K, CH_CP, CH_INV, CH_Z, CH_FORM, CH_NODE1 = 0, 3, 6, 9, 10, 11, 12, 13
+N_CHAIN_ROWS = 14
+FORM_TRIDIAGONAL, FORM_ARROW = 0.0, 1.0
 
 
 N_DRIVE_STATES = 5
@@ -162,27 +169,18 @@ def layout(na: int, nt: int) -> dict:
 
 
 def pack_chain(chain) -> np.ndarray:
-    """Pack a :class:`~drill_twin.physics.models.Chain` for the kernel (12 x n): the three
-    tridiagonal matrices, the Thomas factors of M and ``z = M⁻¹ e_last`` (the compliance of
-    the last DOF, for the Lagrange multiplier of a stuck bit)."""
+    """Pack a :class:`~drill_twin.physics.models.Chain` (tridiagonal) or a
+    :class:`~drill_twin.physics.reduction.ReducedChain` (arrow) for the kernel
+    (:data:`N_CHAIN_ROWS` x n), with ``z = M⁻¹ e_last`` (the compliance of the last DOF, for
+    the Lagrange multiplier of a stuck bit)."""
     if chain is None:
         return np.zeros((N_CHAIN_ROWS, 0))
     n = chain.n
     out = np.zeros((N_CHAIN_ROWS, n))
-    out[CH_M:CH_M + 3] = chain.mass
-    out[CH_C:CH_C + 3] = chain.damping
-    out[CH_K:CH_K + 3] = chain.stiffness
-    lo, d, up = chain.mass
-    cp = np.zeros(n)
-    inv = np.zeros(n)
-    for i in range(n):
-        den = d[i] - (lo[i] * cp[i - 1] if i > 0 else 0.0)
-        if not den > 0:
-            raise ValueError('mass matrix is not positive definite')
-        inv[i] = 1.0 / den
-        cp[i] = up[i] * inv[i] if i < n - 1 else 0.0
-    out[CH_CP] = cp
-    out[CH_INV] = inv
+    if getattr(chain, 'form', 'tridiagonal') == 'arrow':
+        _pack_arrow(chain, out)
+    else:
+        _pack_tridiagonal(chain, out)
     e = np.zeros(n)
     e[-1] = 1.0
     z = np.empty(n)
@@ -191,11 +189,56 @@ def pack_chain(chain) -> np.ndarray:
     return out
 
 
+def _pack_tridiagonal(chain, out):
+    n = chain.n
+    out[CH_M:CH_M + 3] = chain.mass
+    out[CH_C:CH_C + 3] = chain.damping
+    out[CH_K:CH_K + 3] = chain.stiffness
+    lo, d, up = chain.mass
+    cp = out[CH_CP]
+    inv = out[CH_INV]
+    for i in range(n):
+        den = d[i] - (lo[i] * cp[i - 1] if i > 0 else 0.0)
+        if not den > 0:
+            raise ValueError('mass matrix is not positive definite')
+        inv[i] = 1.0 / den
+        cp[i] = up[i] * inv[i] if i < n - 1 else 0.0
+    out[CH_FORM, 0] = FORM_TRIDIAGONAL
+
+
+def _pack_arrow(chain, out):
+    n = chain.n
+    for row, which in ((CH_M, 'mass'), (CH_C, 'damping'), (CH_K, 'stiffness')):
+        A = chain.dense(which)
+        out[row] = A[0]
+        out[row + 1] = np.diag(A)
+        out[row + 2] = A[-1]
+    M = chain.dense('mass')
+    d = np.diag(M)[1:-1]
+    if not np.all(d > 0):
+        raise ValueError('mass matrix is not positive definite')
+    P = M[np.ix_([0, n - 1], range(1, n - 1))]
+    schur = M[np.ix_([0, n - 1], [0, n - 1])] - (P / d) @ P.T
+    if not np.all(np.linalg.eigvalsh(schur) > 0):
+        raise ValueError('mass matrix is not positive definite')
+    out[CH_CP, 0:4] = np.linalg.inv(schur).ravel()
+    out[CH_INV, 1:-1] = 1.0 / d
+    out[CH_FORM, 0] = FORM_ARROW
+    full = chain.full
+    out[CH_FORM, 1] = full.stiffness[2, 0]
+    out[CH_FORM, 2] = full.damping[2, 0]
+    out[CH_NODE1] = chain.basis[1]
+
+
 @kernel_jit(inline='always')
 def _solve(ch, r, out):
-    """Solve the tridiagonal system M out = r with the precomputed Thomas factors."""
+    """Solve M out = r: Thomas recurrences with the precomputed factors (tridiagonal), or
+    the boundary Schur complement (arrow)."""
     n = r.size
     if n == 0:
+        return
+    if ch[CH_FORM, 0] == FORM_ARROW:
+        _solve_arrow(ch, r, out)
         return
     lo = ch[CH_M]
     cp = ch[CH_CP]
@@ -208,9 +251,34 @@ def _solve(ch, r, out):
 
 
 @kernel_jit(inline='always')
+def _solve_arrow(ch, r, out):
+    """M out = r for an arrow M: eliminate the modes (diagonal), solve the 2 x 2 boundary
+    Schur complement, back-substitute."""
+    n = r.size
+    top = ch[CH_M]
+    bit = ch[CH_M + 2]
+    inv = ch[CH_INV]
+    r0 = r[0]
+    rb = r[n - 1]
+    for j in range(1, n - 1):
+        s = r[j] * inv[j]
+        r0 -= top[j] * s
+        rb -= bit[j] * s
+    a0 = ch[CH_CP, 0] * r0 + ch[CH_CP, 1] * rb
+    ab = ch[CH_CP, 2] * r0 + ch[CH_CP, 3] * rb
+    out[0] = a0
+    out[n - 1] = ab
+    for j in range(1, n - 1):
+        out[j] = (r[j] - top[j] * a0 - bit[j] * ab) * inv[j]
+
+
+@kernel_jit(inline='always')
 def _internal_force(ch, q, qd, out):
-    """out = -(C qd + K q) for a tridiagonal chain."""
+    """out = -(C qd + K q) for a tridiagonal or an arrow chain."""
     n = q.size
+    if n > 0 and ch[CH_FORM, 0] == FORM_ARROW:
+        _internal_force_arrow(ch, q, qd, out)
+        return
     for i in range(n):
         s = ch[CH_C + 1, i] * qd[i] + ch[CH_K + 1, i] * q[i]
         if i > 0:
@@ -218,6 +286,26 @@ def _internal_force(ch, q, qd, out):
         if i < n - 1:
             s += ch[CH_C + 2, i] * qd[i + 1] + ch[CH_K + 2, i] * q[i + 1]
         out[i] = -s
+
+
+@kernel_jit(inline='always')
+def _internal_force_arrow(ch, q, qd, out):
+    """out = -(C qd + K q) for an arrow chain (boundary rows full, modes diagonal), one
+    pass over the modes."""
+    n = q.size
+    b = n - 1
+    c_top, c_diag, c_bit = ch[CH_C], ch[CH_C + 1], ch[CH_C + 2]
+    k_top, k_diag, k_bit = ch[CH_K], ch[CH_K + 1], ch[CH_K + 2]
+    q0, qd0, qb, qdb = q[0], qd[0], q[b], qd[b]
+    s0 = c_top[0] * qd0 + k_top[0] * q0 + c_top[b] * qdb + k_top[b] * qb
+    sb = c_bit[0] * qd0 + k_bit[0] * q0 + c_bit[b] * qdb + k_bit[b] * qb
+    for j in range(1, b):
+        s0 += c_top[j] * qd[j] + k_top[j] * q[j]
+        sb += c_bit[j] * qd[j] + k_bit[j] * q[j]
+        out[j] = -(c_diag[j] * qd[j] + k_diag[j] * q[j] + c_top[j] * qd0 + k_top[j] * q0
+                   + c_bit[j] * qdb + k_bit[j] * qb)
+    out[0] = -s0
+    out[b] = -sb
 
 
 @kernel_jit(inline='always')
@@ -265,15 +353,14 @@ class Work(NamedTuple):
     slopes: np.ndarray
 
 
-_WORK_ROWS = len(Work._fields)
-_SIZES_ROW = _WORK_ROWS      # the last row holds n, na, nt and the blade groups
+_SIZES_ROW = len(Work._fields)   # after one row per field: n, na, nt and the blade groups
 
 
 @njit(cache=True, nogil=True)
 def _work(n, na, nt, groups):
     """The scratch array (one row per :class:`Work` field, then the sizes)."""
     width = max(n, N_AUX, 3 + groups, N_SIGNALS, 4)
-    work = np.zeros((_WORK_ROWS + 1, width))
+    work = np.zeros((_SIZES_ROW + 1, width))
     work[_SIZES_ROW, 0] = n
     work[_SIZES_ROW, 1] = na
     work[_SIZES_ROW, 2] = nt
@@ -397,7 +484,15 @@ def surface_torque_perturbation(x, T, na):
     motor or the Soft-Torque drive), units C."""
     nt = T.shape[1]
     p0, w0 = 2 * na, 2 * na + nt
-    return -T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
+    if T[CH_FORM, 0] != FORM_ARROW:
+        return -T[CH_K + 2, 0] * (x[p0] - x[p0 + 1]) - T[CH_C + 2, 0] * (x[w0] - x[w0 + 1])
+    node1 = T[CH_NODE1]                 # node 1 is a combination of the chain's DOFs
+    p1 = 0.0
+    w1 = 0.0
+    for j in range(nt):
+        p1 += node1[j] * x[p0 + j]
+        w1 += node1[j] * x[w0 + j]
+    return -T[CH_FORM, 1] * (x[p0] - p1) - T[CH_FORM, 2] * (x[w0] - w1)
 
 
 @kernel_jit(inline='always')

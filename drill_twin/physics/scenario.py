@@ -39,6 +39,7 @@ from .models import (
     rgd_k,
 )
 from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, StringSection
+from .reduction import DEFAULT_CUTOFF, reduce_model
 from .schema import DRIVE, ConfigError, validate
 from .top_drive import DriveGains, TopDrive, mode_gains
 
@@ -76,6 +77,15 @@ class Scenario:
     system: DrillStringSI | None = None
     kappa_d: float | None = None
     raw: dict = field(default_factory=dict)
+    #: the model the time integration runs when it is not ``model`` itself: the
+    #: Craig–Bampton reduction of a finite-element string (:mod:`~drill_twin.physics.
+    #: reduction`), chosen with ``time_step: auto``; linear analyses use ``model``
+    simulated_model: StringModel | None = None
+
+    @property
+    def integrated_model(self) -> StringModel:
+        """The model :class:`~drill_twin.physics.simulation.Simulation` integrates."""
+        return self.simulated_model or self.model
 
     @property
     def is_si(self) -> bool:
@@ -338,12 +348,14 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
         drive = _top_drive(cfg, system, groups) \
             if cfg['model'].get('top_drive') == 'motor' and system is not None else None
         model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive)
+        simulated = _simulated_model(model, sim)
         if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
-            dt = min(0.8 * max_stable_step(model, cap=5e-3 / 0.8), 0.25 * groups.min_delay)
+            dt = min(0.8 * max_stable_step(simulated or model, cap=5e-3 / 0.8),
+                     0.25 * groups.min_delay)
         else:
             dt = sim['time_step']
             if check_step:
-                _check_step(dt, model, groups)
+                _check_step(dt, simulated or model, groups)
     except ConfigError:
         raise
     except ParameterError as exc:
@@ -352,7 +364,27 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
                     record_interval=max(rec, dt),
                     initial_perturbation=dict(sim['initial_perturbation']),
                     perturb_where=sim['perturb'], scales=scales, system=system,
-                    kappa_d=kappa_d, raw=cfg)
+                    kappa_d=kappa_d, raw=cfg, simulated_model=simulated)
+
+
+#: a reduction that keeps more than this fraction of the chain's DOFs is not worth it
+_USEFUL_REDUCTION = 0.75
+
+
+def _simulated_model(model: StringModel, sim: dict) -> StringModel | None:
+    """The Craig–Bampton reduction of a finite-element string when ``simulation.reduction``
+    asks for it (``auto``: with ``time_step: auto``, when it removes at least a quarter of
+    the DOFs), else None (the model itself)."""
+    mode = sim.get('reduction', 'auto')
+    if model.element_lengths_m is None or mode == 'none' or (
+            mode == 'auto' and sim['time_step'] != 'auto'):
+        return None
+    reduced = reduce_model(model, sim.get('modal_cutoff', DEFAULT_CUTOFF))
+    dofs = [(c.n, getattr(c, 'full', c).n) for c in (reduced.axial, reduced.torsional)
+            if c is not None]
+    if mode == 'auto' and sum(r for r, _ in dofs) > _USEFUL_REDUCTION * sum(f for _, f in dofs):
+        return None
+    return reduced
 
 
 def resolve_config(name) -> Path:

@@ -250,11 +250,18 @@ PERTURBATION = Section('initial_perturbation', 'initial perturbation from the st
 
 SIMULATION = Section('simulation', 'run settings', keys=(
     Key('time_step', 'float_or_auto', "integration step ('auto': 80 % of the RK4 stability "
-        'limit)', 't*', 1e-6, 1.0, default='auto'),
+        'limit, at most 5e-3; a finite-element string is then reduced: see reduction)', 't*',
+        1e-6, 1.0, default='auto'),
     _pos('duration', 'simulated time (dimensionless configs)', 't*', 1e7, 100.0),
     _pos('duration_s', 'simulated time (SI configs)', 's', 1e7, 75.0),
     _pos('record_interval', 'recording interval (dimensionless configs)', 't*', 1e4, 0.01),
     _pos('record_interval_s', 'recording interval (SI configs)', 's', 1e4, 0.01),
+    Key('reduction', 'choice', "time integration of a finite-element string: 'auto' = "
+        "the Craig-Bampton reduction when time_step is auto, 'craig_bampton' always, 'none' "
+        'the full chain (the RK4 reference)', choices=('auto', 'craig_bampton', 'none'),
+        default='auto'),
+    _pos('modal_cutoff', 'highest fixed-interface frequency of the interior modes a '
+         'reduced string keeps', 'rad/t*', 1e6, 250.0),
     Key('perturb', 'choice', 'where the perturbation goes: bit DOFs, every DOF, or a field '
         'compatible with the top boundary', choices=('bit', 'all', 'smooth'), default='bit'),
 ), subsections=(PERTURBATION,))

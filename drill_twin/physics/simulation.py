@@ -178,7 +178,7 @@ class Simulation:
             raise ParameterError('model semi_infinite is a stability model only (thesis §5.2: '
                                  'a massless stuck bit never restarts); use lumped_I to '
                                  'simulate')
-        sim = cls(scenario.model, scenario.groups, time_step or scenario.time_step,
+        sim = cls(scenario.integrated_model, scenario.groups, time_step or scenario.time_step,
                   drive_time_constant=drive_time_constant)
         sim.perturb(where=scenario.perturb_where,
                     **(scenario.initial_perturbation if perturbation is None else perturbation))
@@ -218,11 +218,13 @@ class Simulation:
                 self.x[idx] += val
             elif where == 'smooth':
                 chain = self.model.axial if name in ('u', 'v') else self.model.torsional
-                n = idx.stop - idx.start
+                n = getattr(chain, 'full', chain).n       # physical DOFs of the chain
                 # a top held by a spring, a dash-pot or the drive's controller
                 fixed = chain.k_top > 0 or chain.c_top > 0 or (
                     name in ('phi', 'omega') and bool(self.model.motor_drive))
                 profile = np.arange(1, n + 1) / n if fixed else np.ones(n)
+                if hasattr(chain, 'project'):                # reduced chain coordinates
+                    profile = chain.project(profile)
                 self.x[idx] += val * profile
             else:
                 raise ParameterError(f"perturbation 'where' must be bit, all or smooth, "

@@ -112,6 +112,8 @@ def element_tension_N(scenario, sim) -> np.ndarray:
     s = scenario.scales
     ax = model.axial
     u = sim.x[sim.slices()['u']]
+    if hasattr(ax, 'expand'):                        # a reduced string: its nodes
+        ax, u = ax.full, ax.expand(u)
     below = element_weights_below_N(scenario.system, model.element_lengths_m,
                                     model.section_elements)
     reference = below - sim.groups.W_o * s.force_N
