@@ -7,6 +7,11 @@ jitcdde it is an extra state with τ_1' = 1 - Ω(t)/Ω(t - τ_1) (the derivative
 eq. 2.4.13), for drill_twin it is found by the history search.  The window ends
 before the first stick/lift-off event (checked), where the dynamics is smooth.
 Error: max |Ω_bit - Ω_ref| against drill_twin at a 16x smaller step.
+
+:func:`work_precision` sweeps steps (drill_twin, the NumPy peer) and tolerances (jitcdde),
+measures the error against a fine reference (drill_twin at 0.04/512 t*, checked against
+jitcdde at rtol 1e-12) and the wall time, and reads the speed ratio at equal error off
+the curves (log-log interpolation).
 """
 from __future__ import annotations
 
@@ -85,6 +90,127 @@ def compare(smoke=False):
                 break
         rows.append((h, err_dt, wall_dt) + found + (t_end,))
     return rows
+
+
+#: output grid of the work-precision sweep [t*]: a multiple of every step, so all runs are
+#: compared at the same instants without interpolation
+DT_OUT = 0.04
+DT_STEPS = (0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125, 0.000625)
+JIT_RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11)
+NUMPY_STEPS = (0.04, 0.02, 0.01, 0.005, 0.0025)
+#: the error range over which the speed ratio is read [rad/t*]
+ERROR_RANGE = (1e-8, 1e-4)
+
+
+def numpy_rgd_run(sc, h, t_end, dt_out):
+    """What a researcher writes first for the same problem: RK4 in NumPy on the 6 states of
+    the RGD with the drive lag, the delay by ``np.interp`` on the stored history of the bit
+    angle and position (appended every step)."""
+    g = sc.groups
+    psi, nb, lam, beta = sc.model.psi, g.n_b, g.lam, g.beta
+    om, up, blade = g.omega_o, g.upsilon_o, 2 * np.pi / g.n_b
+    hist_t = list(np.arange(-3 * g.tau_10, 0.0, h))
+    hist_phi = [om * t for t in hist_t]
+    hist_u = [up * t for t in hist_t]
+
+    def f(t, y):
+        u, v, ph, w, thp, omp = y
+        td = np.interp(om * t + ph - blade, hist_phi, hist_t)
+        delta = up * t + u - np.interp(td, hist_t, hist_u)
+        W = nb * delta + nb * lam
+        T = nb * delta + nb * lam * beta
+        return np.array([v, -psi * (W - g.W_o), w, -(ph - thp) - (T - g.T_o), omp,
+                         ((KICK - 1) * om - omp) / T_DRIVE])
+
+    every = int(round(dt_out / h))
+    y = np.zeros(6)
+    t = 0.0
+    out = []
+    t0 = time.perf_counter()
+    for k in range(1, int(round(t_end / h)) + 1):
+        k1 = f(t, y)
+        k2 = f(t + h / 2, y + h / 2 * k1)
+        k3 = f(t + h / 2, y + h / 2 * k2)
+        k4 = f(t + h, y + h * k3)
+        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        t = k * h
+        hist_t.append(t)
+        hist_phi.append(om * t + y[2])
+        hist_u.append(up * t + y[0])
+        if k % every == 0:
+            out.append(om + y[3])
+    return np.array(out), time.perf_counter() - t0
+
+
+def _wall_at(curve, error):
+    """Wall time at ``error`` on a work-precision curve [(error, wall)], by log-log
+    interpolation between its points; None outside the errors it spans."""
+    pts = sorted(curve)
+    errs = np.log([e for e, _ in pts])
+    walls = np.log([w for _, w in pts])
+    x = np.log(error)
+    if not errs[0] <= x <= errs[-1]:
+        return None
+    return float(np.exp(np.interp(x, errs, walls)))
+
+
+def speed_ratios(curves, errors):
+    """Peer wall / drill_twin wall at each error of ``errors`` (None where a curve does not
+    reach it)."""
+    out = {}
+    for name, curve in curves.items():
+        if name == 'drill_twin':
+            continue
+        ratios = []
+        for e in errors:
+            mine, theirs = _wall_at(curves['drill_twin'], e), _wall_at(curve, e)
+            ratios.append(None if mine is None or theirs is None else theirs / mine)
+        out[name] = ratios
+    return out
+
+
+def work_precision(smoke=False):
+    """Work-precision curves on the RGD smooth interval: {name: [(error, wall)]}, the
+    reference check (jitcdde at rtol 1e-12 against the reference) and the window [t*]."""
+    sc = load_scenario('benchmark_fem', ['model.type=rgd'])
+    t_end = smooth_window(sc, 0.02)
+    t_end = DT_OUT * int((min(t_end, 4.0) if smoke else t_end) / DT_OUT)
+    tau, ref, _, events = drill_twin_run(sc, DT_OUT / 512, t_end, DT_OUT)
+    assert events == 0, 'the comparison window must be smooth (no stick/lift-off events)'
+
+    def error(values):
+        return float(np.abs(np.asarray(values)[:ref.size] - ref).max())
+    curves = {'drill_twin': [], 'jitcdde': [], 'NumPy RK4': []}
+    for h in DT_STEPS[:3] if smoke else DT_STEPS:
+        runs = [drill_twin_run(sc, h, t_end, DT_OUT) for _ in range(3)]   # best of three
+        curves['drill_twin'].append((error(runs[0][1]), min(r[2] for r in runs)))
+    for rtol in JIT_RTOLS[:2] if smoke else JIT_RTOLS:
+        om, wall = jitcdde_run(sc, tau, rtol)
+        curves['jitcdde'].append((error(om), wall))
+    for h in NUMPY_STEPS[:1] if smoke else NUMPY_STEPS:
+        om, wall = numpy_rgd_run(sc, h, t_end, DT_OUT)
+        curves['NumPy RK4'].append((error(om), wall))
+    check = error(jitcdde_run(sc, tau, 1e-12)[0])
+    return curves, check, t_end
+
+
+def plot_work_precision(curves, path):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for (name, curve), marker in zip(curves.items(), 'osd'):
+        pts = sorted(curve)
+        ax.loglog([e for e, _ in pts], [w for _, w in pts], marker=marker, label=name)
+    ax.axvspan(*ERROR_RANGE, color='0.92', zorder=0, label='target range')
+    ax.set_xlabel('max |Ω_bit − Ω_ref| (rad/t*)')
+    ax.set_ylabel('wall time (s)')
+    ax.set_title('RGD smooth interval: work against precision')
+    ax.grid(True, which='both', alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 if __name__ == '__main__':

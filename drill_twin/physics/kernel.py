@@ -5,7 +5,9 @@ Method (one integrator for every model)
 * The perturbation equations of :mod:`drill_twin.physics.models` are written as
   a first-order system ``x = [u, u', φ, φ', θ_p, ω_p, z_p]`` (:func:`layout`) and
   advanced with the classical 4th-order Runge-Kutta method.  Mass matrices are
-  tridiagonal and factorised once (Thomas algorithm), so a step costs O(n).
+  tridiagonal and factorised once (Thomas algorithm), or, for a Craig–Bampton reduced
+  string (:mod:`drill_twin.physics.reduction`), arrow matrices solved through the 2 x 2
+  Schur complement of the top and bit DOFs; either way a step costs O(n).
 * The bit/rock law (:mod:`drill_twin.physics.interface_law`) is piecewise smooth.
   Within a step the interface *mode* is held fixed, so the right-hand side is
   smooth and RK4 keeps its order.  When a switching function of the mode is
@@ -813,13 +815,19 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
 
 
 @kernel_jit
-def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th, thm, work, row):
-    """Fill one record row (:data:`RECORD_CHANNELS`) from the current state."""
+def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th, thm, work, row,
+                  evaluated):
+    """Fill one record row (:data:`RECORD_CHANNELS`) from the current state.  ``evaluated``:
+    the aux values already belong to this state (every step ends with a right-hand side at
+    its final state and mode — the switching check or the settling after an event — and the
+    surface a step writes is read with the values from before the write), so the
+    right-hand side is not evaluated again."""
     w = _views(work)
     na = A.shape[1]
     nt = T.shape[1]
     d = 2 * na + 2 * nt
-    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, work)
+    if not evaluated:
+        rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, w.tmp, work)
     ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
     row[0] = tau
     row[1] = vb
@@ -875,7 +883,7 @@ def snapshot(tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, row):
     nt = T.shape[1]
     work = _work(x.size, na, nt, law.offsets.size)
     _write_record(tau_arr[0], tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
-                  work, row)
+                  work, row, False)
 
 
 @njit(cache=True, nogil=True)
@@ -915,7 +923,7 @@ def advance(n_steps, h, tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, t
                 and n_rec[0] < record.shape[0]:
             r = n_rec[0]
             _write_record(tau, tau_arr[1], x, mode, law, top, inp, A, T, surf, geom, th, thm,
-                          work, record[r])
+                          work, record[r], True)
             if state_record.shape[0] > r:
                 for i in range(n):
                     state_record[r, i] = x[i]

@@ -203,32 +203,35 @@ class Simulation:
         motor drive's controller) to the value at the bit (so
         no element is suddenly strained; in a finite-element string a perturbation
         of the bit node alone is a local strain spike that sticks the bit at once).
+        A reduced string (:mod:`~drill_twin.physics.reduction`) gets the projection of that
+        field of its nodes on its coordinates (kinetic-energy norm).
         """
         for name, val in (('u', u), ('v', v), ('phi', phi), ('omega', omega)):
             if not math.isfinite(val):
                 raise ParameterError(f'perturbation {name} must be finite')
+        if where not in ('bit', 'all', 'smooth'):
+            raise ParameterError(f"perturbation 'where' must be bit, all or smooth, "
+                                 f'got {where!r}')
         sl = self.slices()
         for name, val in (('u', u), ('v', v), ('phi', phi), ('omega', omega)):
             idx = sl[name]
             if idx.stop == idx.start:
                 continue
+            chain = self.model.axial if name in ('u', 'v') else self.model.torsional
+            n = getattr(chain, 'full', chain).n       # the chain's nodes
             if where == 'bit':
-                self.x[idx.stop - 1] += val
+                profile = np.zeros(n)
+                profile[-1] = 1.0
             elif where == 'all':
-                self.x[idx] += val
-            elif where == 'smooth':
-                chain = self.model.axial if name in ('u', 'v') else self.model.torsional
-                n = getattr(chain, 'full', chain).n       # physical DOFs of the chain
+                profile = np.ones(n)
+            else:
                 # a top held by a spring, a dash-pot or the drive's controller
                 fixed = chain.k_top > 0 or chain.c_top > 0 or (
                     name in ('phi', 'omega') and bool(self.model.motor_drive))
                 profile = np.arange(1, n + 1) / n if fixed else np.ones(n)
-                if hasattr(chain, 'project'):                # reduced chain coordinates
-                    profile = chain.project(profile)
-                self.x[idx] += val * profile
-            else:
-                raise ParameterError(f"perturbation 'where' must be bit, all or smooth, "
-                                     f'got {where!r}')
+            if hasattr(chain, 'project'):                # a reduced chain: its coordinates
+                profile = chain.project(profile)
+            self.x[idx] += val * profile
         if self.groups.upsilon_o + self.x[sl['v'].stop - 1] < 0:
             self.mode[MD_AX] = AX_UP
         self._jump_from_initial_function()
