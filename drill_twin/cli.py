@@ -101,7 +101,10 @@ def cmd_simulate(args) -> int:
         return _simulate_to_mcap(args, scenario, duration, progress)
     series, wall, sim = run_scenario(scenario, duration, progress)
     summary = stick_slip_summary(series, args.stats_from or 0.0)
-    summary.update({'model': scenario.model.name, 'units': 'si' if scenario.is_si else
+    summary.update({'model': scenario.model.name,
+                    'integrated_model': scenario.integrated_model.name,
+                    'time_step_tstar': scenario.time_step,
+                    'units': 'si' if scenario.is_si else
                     'dimensionless', 'simulated': float(series['time'][-1]),
                     'wall_s': wall, 'events': sim.event_count,
                     'history_overflows': sim.history_overflows})

@@ -145,6 +145,19 @@ def test_bad_reduction_settings_are_refused(bad):
         load_scenario('benchmark_fem', [bad])
 
 
+def test_reduction_of_a_lumped_model_is_refused_in_one_line(tmp_path):
+    """`reduction: craig_bampton` on a model without finite elements: exit code 2 and one
+    line naming the key."""
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, '-m', 'drill_twin.cli', 'simulate', '--config',
+                           'rgd_stick_slip', '--set', 'simulation.reduction=craig_bampton',
+                           '--out', str(tmp_path / 'x.npz')], capture_output=True, text=True)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and 'simulation.reduction' in lines[0]
+
+
 def test_reduce_chain_refuses_what_it_cannot_reduce(fem):
     with pytest.raises(ParameterError):
         reduce_chain(fem.model.torsional, 0.0)

@@ -376,6 +376,9 @@ def _simulated_model(model: StringModel, sim: dict) -> StringModel | None:
     asks for it (``auto``: with ``time_step: auto``, when it removes at least a quarter of
     the DOFs), else None (the model itself)."""
     mode = sim.get('reduction', 'auto')
+    if mode == 'craig_bampton' and model.element_lengths_m is None:
+        raise ParameterError(f'simulation.reduction = craig_bampton: model {model.name} is '
+                             'not a finite-element string (model.type: fem); use auto or none')
     if model.element_lengths_m is None or mode == 'none' or (
             mode == 'auto' and sim['time_step'] != 'auto'):
         return None
