@@ -4,9 +4,9 @@ numba's on-disk cache (``cache=True``) is keyed by the timestamp of the file of
 the function it compiles, not by the files that function calls: after an edit
 of a jitted helper in another module the old machine code keeps running.  To
 make stale code impossible, the cache directory is named after a hash of every
-source file of :mod:`drill_twin.physics` that uses numba (the jitted kernels and
-every helper they call): any edit of any of them gives a new, empty directory
-(and a fresh compile), whatever the timestamps say.
+source file of :mod:`drill_twin.physics` and :mod:`drill_twin.stability` that uses
+numba (the jitted kernels and every helper they call): any edit of any of them gives a
+new, empty directory (and a fresh compile), whatever the timestamps say.
 
 The root is ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/drill_twin/numba``
 (``~/.cache/drill_twin/numba``); ``make clean-cache`` removes it.
@@ -22,14 +22,17 @@ from pathlib import Path
 __all__ = ['source_key', 'cache_root', 'cache_dir', 'configure', 'clear']
 
 PHYSICS_DIR = Path(__file__).resolve().parent
+#: other folders whose jitted code shares the cache (the stability module's Newton refinement)
+OTHER_DIRS = (PHYSICS_DIR.parent / 'stability',)
 
 
-def source_key(folder: Path = PHYSICS_DIR) -> str:
-    """16 hex digits of SHA-256 over the names and contents of the ``folder/*.py`` files
-    that compile code: those that mention numba or the kernel's decorator ``kernel_jit``
-    (:mod:`drill_twin.physics.jit`)."""
+def source_key(folder: Path = PHYSICS_DIR, others=OTHER_DIRS) -> str:
+    """16 hex digits of SHA-256 over the names and contents of the ``*.py`` files of
+    ``folder`` and ``others`` that compile code: those that mention numba or the kernel's
+    decorator ``kernel_jit`` (:mod:`drill_twin.physics.jit`)."""
     digest = hashlib.sha256()
-    for path in sorted(Path(folder).glob('*.py')):
+    paths = [p for d in (folder, *others) for p in sorted(Path(d).glob('*.py'))]
+    for path in paths:
         text = path.read_bytes()
         if b'numba' not in text and b'kernel_jit' not in text:
             continue

@@ -348,7 +348,8 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
         drive = _top_drive(cfg, system, groups) \
             if cfg['model'].get('top_drive') == 'motor' and system is not None else None
         model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive)
-        simulated = _simulated_model(model, sim)
+        # linear analyses (check_step False) never integrate: no reduction to build
+        simulated = _simulated_model(model, sim) if check_step else None
         if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
             dt = min(0.8 * max_stable_step(simulated or model, cap=5e-3 / 0.8),
                      0.25 * groups.min_delay)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+from numba import njit
 
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
@@ -124,28 +125,61 @@ class _TransferFunction:
         return 1.0 - e * g, e * (self.h * g - dg), e * g
 
     def newton_batch(self, lam0, tol=1e-14, maxit=15):
-        """Newton on many starting points at once (vectorised over candidates)."""
-        lam = np.array(lam0, complex)
-        start = lam.copy()
-        active = np.isfinite(lam)
-        with np.errstate(all='ignore'):  # a wild iterate may hit a pole: rejected below
+        """Newton from many starting points (compiled, one candidate at a time); returns the
+        roots (NaN where an iterate left the finite plane or the far left half-plane), their
+        distances from the starts and the relative residuals |1 - e^{-λh}G| / max(1, |e^{-λh}G|)."""
+        start = np.array(lam0, complex).ravel()
+        lam = np.empty_like(start)
+        rel = np.empty(start.size)
+        _newton_scalar(start, self.mu.astype(complex), self.p.astype(complex), float(self.h),
+                       tol, maxit, lam, rel)
+        return lam, np.abs(lam - start), rel
+
+
+@njit(cache=True, error_model='numpy')
+def _transfer(z, mu, p, h):
+    """1 - e^{-zh} G(z), its derivative and e^{-zh} G(z) (G = Σ p_j / (z - μ_j))."""
+    g = 0j
+    dg = 0j
+    for j in range(mu.size):
+        d = z - mu[j]
+        if d == 0:          # on a pole: no finite value (rejected by the caller)
+            nan = complex(np.nan, np.nan)
+            return nan, nan, nan
+        g += p[j] / d
+        dg -= p[j] / (d * d)
+    e = np.exp(-z * h)
+    return 1.0 - e * g, e * (h * g - dg), e * g
+
+
+@njit(cache=True, error_model='numpy')
+def _newton_scalar(start, mu, p, h, tol, maxit, lam, rel):
+    """Newton on 1 - e^{-λh} G(λ) = 0 from each start (see ``newton_batch``)."""
+    for k in range(start.size):
+        z = start[k]
+        ok = np.isfinite(z.real) and np.isfinite(z.imag)
+        if ok:
             for _ in range(maxit):
-                if not active.any():
+                fv, dfv, _ = _transfer(z, mu, p, h)
+                if dfv == 0:
+                    ok = False
                     break
-                z = lam[active]
-                fv, dfv, _ = self.f(z)
                 step = -fv / dfv
                 z = z + step
-                bad = ~np.isfinite(z) | (z.real * self.h < -700)
-                z[bad] = np.nan
-                lam[active] = z
-                done = bad | (np.abs(step) <= tol * np.maximum(1.0, np.abs(z)))
-                idx = np.flatnonzero(active)
-                active[idx[done]] = False
-            fv, _, eg = self.f(lam)
-            rel = np.abs(fv) / np.maximum(1.0, np.abs(eg))
-        rel[~np.isfinite(lam)] = np.inf
-        return lam, np.abs(lam - start), rel
+                if not (np.isfinite(z.real) and np.isfinite(z.imag)) or z.real * h < -700:
+                    ok = False
+                    break
+                if abs(step) <= tol * max(1.0, abs(z)):
+                    break
+        if not ok:
+            lam[k] = complex(np.nan, np.nan)
+            rel[k] = np.inf
+            continue
+        lam[k] = z
+        fv, _, eg = _transfer(z, mu, p, h)
+        rel[k] = abs(fv) / max(1.0, abs(eg))
+        if not np.isfinite(rel[k]):
+            rel[k] = np.inf
 
 
 def newton_root(dde: LinearDDE, lam0: complex, tol: float = 1e-13, maxit: int = 30):

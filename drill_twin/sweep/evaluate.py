@@ -11,6 +11,7 @@ the configuration is invalid (no drilling, a rejected value) or the run diverges
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 
@@ -48,10 +49,38 @@ def evaluate_block(spec: SweepSpec, block: int) -> BlockResult:
     return result
 
 
-def _linear_system(spec: SweepSpec, values: dict):
+#: scenarios a worker has built, by (configuration as JSON, point values); see _scenario_at
+_SCENARIOS: dict = {}
+_SCENARIO_CACHE_SIZE = 1024
+
+
+def _scenario_at(spec: SweepSpec, values: dict, raw_json: str | None):
+    """The validated scenario of the sweep's configuration at the point ``values``.  A
+    worker meets the same configuration once per line of a chart (the virtual key υ_o
+    aside), so it is built once and kept, keyed by the configuration's JSON text
+    (``raw_json``; None: not cached)."""
+    key = None if raw_json is None else (raw_json, tuple(sorted(values.items())))
+    sc = _SCENARIOS.get(key) if key is not None else None
+    if sc is None:
+        sc = scenario_from_dict(with_values(spec.raw, values), 'sweep', check_step=False)
+        if key is not None:
+            if len(_SCENARIOS) >= _SCENARIO_CACHE_SIZE:
+                _SCENARIOS.clear()
+            _SCENARIOS[key] = sc
+    return sc
+
+
+def _config_json(spec: SweepSpec):
+    try:
+        return json.dumps(spec.raw, sort_keys=True)
+    except (TypeError, ValueError):   # a value JSON cannot write: no caching
+        return None
+
+
+def _linear_system(spec: SweepSpec, values: dict, raw_json: str | None = None):
     from ..stability.linearize import linearize_scenario
     ups = values.pop(UPSILON_O, None)
-    sc = scenario_from_dict(with_values(spec.raw, values), 'sweep', check_step=False)
+    sc = _scenario_at(spec, values, raw_json)
     g = sc.groups
     if ups is not None:
         g = g.replace(W_o=g.n_b * g.lam + 2 * math.pi * ups / g.omega_o)
@@ -63,11 +92,12 @@ def _linear(spec: SweepSpec, flats) -> dict:
     abscissa = np.full(len(flats), np.nan)
     unstable = np.full(len(flats), -1, dtype=np.int32)
     seeds = None
+    raw_json = _config_json(spec)
     for i, flat in enumerate(flats):
         if spec.starts_line(flat):
             seeds = None
         try:
-            dde = _linear_system(spec, spec.values_at(flat))
+            dde = _linear_system(spec, spec.values_at(flat), raw_json)
         except (ValueError, ParameterError):
             seeds = None     # no drilling / an invalid point
             continue
