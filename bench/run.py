@@ -373,6 +373,8 @@ def bench_stability(smoke):
     cores = os.cpu_count()
     from dataclasses import replace
     spec = replace(spec, block_points=block_points_for(spec, 1.5e-3, cores))
+    from drill_twin.sweep.evaluate import evaluate_block
+    evaluate_block(spec, 0)        # numba's compile (a cold cache) out of the timing
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()   # local Dask cluster start-up included
         report = run_sweep(spec, out, workers=cores)
