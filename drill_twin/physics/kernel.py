@@ -210,12 +210,11 @@ def _pack_tridiagonal(chain, out):
 
 def _pack_arrow(chain, out):
     n = chain.n
-    for row, which in ((CH_M, 'mass'), (CH_C, 'damping'), (CH_K, 'stiffness')):
-        A = chain.dense(which)
+    for row, A in ((CH_M, chain.mass), (CH_C, chain.damping), (CH_K, chain.stiffness)):
         out[row] = A[0]
         out[row + 1] = np.diag(A)
         out[row + 2] = A[-1]
-    M = chain.dense('mass')
+    M = chain.mass
     d = np.diag(M)[1:-1]
     if not np.all(d > 0):
         raise ValueError('mass matrix is not positive definite')

@@ -38,7 +38,7 @@ def source_key(folder: Path = PHYSICS_DIR, others=OTHER_DIRS) -> str:
             continue
         digest.update(path.name.encode())
         digest.update(b'\0')
-        digest.update(path.read_bytes())
+        digest.update(text)
         digest.update(b'\0')
     return digest.hexdigest()[:16]
 

@@ -116,14 +116,6 @@ class _TransferFunction:
         # modes that the delay neither excites nor sees are roots by themselves
         self.uncoupled = mu[np.abs(self.p) <= 1e-13 * max(scale, 1e-300)]
 
-    def f(self, lam):
-        """1 - e^{-λh} G(λ), its λ-derivative and G(λ), for an array of λ."""
-        d = lam[:, None] - self.mu[None, :]
-        g = (self.p / d).sum(axis=1)
-        dg = -(self.p / d ** 2).sum(axis=1)
-        e = np.exp(-lam * self.h)
-        return 1.0 - e * g, e * (self.h * g - dg), e * g
-
     def newton_batch(self, lam0, tol=1e-14, maxit=15):
         """Newton from many starting points (compiled, one candidate at a time); returns the
         roots (NaN where an iterate left the finite plane or the far left half-plane), their
