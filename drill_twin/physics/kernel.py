@@ -183,10 +183,9 @@ def pack_chain(chain) -> np.ndarray:
         _pack_arrow(chain, out)
     else:
         _pack_tridiagonal(chain, out)
-    e = np.zeros(n)
-    e[-1] = 1.0
     z = np.empty(n)
-    _solve(out, e, z)
+    rest = np.zeros(n)
+    accelerations(out, rest, rest, 0.0, 1.0, z)
     out[CH_Z] = z
     return out
 
@@ -232,53 +231,16 @@ def _pack_arrow(chain, out):
 
 
 @kernel_jit(inline='always')
-def _solve(ch, r, out):
-    """Solve M out = r: Thomas recurrences with the precomputed factors (tridiagonal), or
-    the boundary Schur complement (arrow)."""
-    n = r.size
+def accelerations(ch, q, qd, f_top, f_bit, out):
+    """The chain's accelerations ``out = M⁻¹ (e_top f_top + e_bit f_bit − C q̇ − K q)``:
+    every external force on a chain acts on its top DOF (drives, hook load) or its bit DOF
+    (the interface law).  Tridiagonal chains: the Thomas recurrences with the precomputed
+    factors; arrow chains: :func:`_accelerations_arrow`."""
+    n = q.size
     if n == 0:
         return
     if ch[CH_FORM, 0] == FORM_ARROW:
-        _solve_arrow(ch, r, out)
-        return
-    lo = ch[CH_M]
-    cp = ch[CH_CP]
-    inv = ch[CH_INV]
-    out[0] = r[0] * inv[0]
-    for i in range(1, n):
-        out[i] = (r[i] - lo[i] * out[i - 1]) * inv[i]
-    for i in range(n - 2, -1, -1):
-        out[i] -= cp[i] * out[i + 1]
-
-
-@kernel_jit(inline='always')
-def _solve_arrow(ch, r, out):
-    """M out = r for an arrow M: eliminate the modes (diagonal), solve the 2 x 2 boundary
-    Schur complement, back-substitute."""
-    n = r.size
-    top = ch[CH_M]
-    bit = ch[CH_M + 2]
-    inv = ch[CH_INV]
-    r0 = r[0]
-    rb = r[n - 1]
-    for j in range(1, n - 1):
-        s = r[j] * inv[j]
-        r0 -= top[j] * s
-        rb -= bit[j] * s
-    a0 = ch[CH_CP, 0] * r0 + ch[CH_CP, 1] * rb
-    ab = ch[CH_CP, 2] * r0 + ch[CH_CP, 3] * rb
-    out[0] = a0
-    out[n - 1] = ab
-    for j in range(1, n - 1):
-        out[j] = (r[j] - top[j] * a0 - bit[j] * ab) * inv[j]
-
-
-@kernel_jit(inline='always')
-def _internal_force(ch, q, qd, out):
-    """out = -(C qd + K q) for a tridiagonal or an arrow chain."""
-    n = q.size
-    if n > 0 and ch[CH_FORM, 0] == FORM_ARROW:
-        _internal_force_arrow(ch, q, qd, out)
+        _accelerations_arrow(ch, q, qd, f_top, f_bit, out)
         return
     for i in range(n):
         s = ch[CH_C + 1, i] * qd[i] + ch[CH_K + 1, i] * q[i]
@@ -287,26 +249,61 @@ def _internal_force(ch, q, qd, out):
         if i < n - 1:
             s += ch[CH_C + 2, i] * qd[i + 1] + ch[CH_K + 2, i] * q[i + 1]
         out[i] = -s
+    out[0] += f_top
+    out[n - 1] += f_bit
+    lo = ch[CH_M]
+    cp = ch[CH_CP]
+    inv = ch[CH_INV]
+    out[0] = out[0] * inv[0]
+    for i in range(1, n):
+        out[i] = (out[i] - lo[i] * out[i - 1]) * inv[i]
+    for i in range(n - 2, -1, -1):
+        out[i] -= cp[i] * out[i + 1]
 
 
 @kernel_jit(inline='always')
-def _internal_force_arrow(ch, q, qd, out):
-    """out = -(C qd + K q) for an arrow chain (boundary rows full, modes diagonal), one
-    pass over the modes."""
-    n = q.size
-    b = n - 1
+def _accelerations_arrow(ch, q, qd, f_top, f_bit, out):
+    """:func:`accelerations` of an arrow chain ``q = [top, η_1 … η_m, bit]`` (boundary rows
+    full, modes diagonal): each mode's acceleration without the boundary's inertial pull,
+    ``s_j = −(C q̇ + K q)_j / M_jj`` (independent per mode); the boundary rows' forces less
+    the modes' pull, summed in four interleaved partial sums (one running sum would chain
+    every mode's multiply-add behind the previous one's latency); the 2 x 2 boundary Schur
+    complement; then ``a_j = s_j − (M_j,top a_top + M_j,bit a_bit) / M_jj``."""
+    b = q.size - 1
+    m_top, m_bit, inv = ch[CH_M], ch[CH_M + 2], ch[CH_INV]
     c_top, c_diag, c_bit = ch[CH_C], ch[CH_C + 1], ch[CH_C + 2]
     k_top, k_diag, k_bit = ch[CH_K], ch[CH_K + 1], ch[CH_K + 2]
     q0, qd0, qb, qdb = q[0], qd[0], q[b], qd[b]
-    s0 = c_top[0] * qd0 + k_top[0] * q0 + c_top[b] * qdb + k_top[b] * qb
-    sb = c_bit[0] * qd0 + k_bit[0] * q0 + c_bit[b] * qdb + k_bit[b] * qb
     for j in range(1, b):
-        s0 += c_top[j] * qd[j] + k_top[j] * q[j]
-        sb += c_bit[j] * qd[j] + k_bit[j] * q[j]
         out[j] = -(c_diag[j] * qd[j] + k_diag[j] * q[j] + c_top[j] * qd0 + k_top[j] * q0
-                   + c_bit[j] * qdb + k_bit[j] * qb)
-    out[0] = -s0
-    out[b] = -sb
+                   + c_bit[j] * qdb + k_bit[j] * qb) * inv[j]
+    t0 = t1 = t2 = t3 = 0.0
+    s0 = s1 = s2 = s3 = 0.0
+    j = 1
+    while j + 3 < b:
+        t0 += c_top[j] * qd[j] + k_top[j] * q[j] + m_top[j] * out[j]
+        s0 += c_bit[j] * qd[j] + k_bit[j] * q[j] + m_bit[j] * out[j]
+        t1 += c_top[j + 1] * qd[j + 1] + k_top[j + 1] * q[j + 1] + m_top[j + 1] * out[j + 1]
+        s1 += c_bit[j + 1] * qd[j + 1] + k_bit[j + 1] * q[j + 1] + m_bit[j + 1] * out[j + 1]
+        t2 += c_top[j + 2] * qd[j + 2] + k_top[j + 2] * q[j + 2] + m_top[j + 2] * out[j + 2]
+        s2 += c_bit[j + 2] * qd[j + 2] + k_bit[j + 2] * q[j + 2] + m_bit[j + 2] * out[j + 2]
+        t3 += c_top[j + 3] * qd[j + 3] + k_top[j + 3] * q[j + 3] + m_top[j + 3] * out[j + 3]
+        s3 += c_bit[j + 3] * qd[j + 3] + k_bit[j + 3] * q[j + 3] + m_bit[j + 3] * out[j + 3]
+        j += 4
+    while j < b:
+        t0 += c_top[j] * qd[j] + k_top[j] * q[j] + m_top[j] * out[j]
+        s0 += c_bit[j] * qd[j] + k_bit[j] * q[j] + m_bit[j] * out[j]
+        j += 1
+    r0 = f_top - (c_top[0] * qd0 + k_top[0] * q0 + c_top[b] * qdb + k_top[b] * qb) \
+        - ((t0 + t1) + (t2 + t3))
+    rb = f_bit - (c_bit[0] * qd0 + k_bit[0] * q0 + c_bit[b] * qdb + k_bit[b] * qb) \
+        - ((s0 + s1) + (s2 + s3))
+    a0 = ch[CH_CP, 0] * r0 + ch[CH_CP, 1] * rb
+    ab = ch[CH_CP, 2] * r0 + ch[CH_CP, 3] * rb
+    out[0] = a0
+    out[b] = ab
+    for j in range(1, b):
+        out[j] -= (m_top[j] * a0 + m_bit[j] * ab) * inv[j]
 
 
 @kernel_jit(inline='always')
@@ -326,11 +323,11 @@ def bit_totals(tau, x, top, na, nt):
 
 class Work(NamedTuple):
     """Named views of the scratch array of one integration (:func:`_work`): the RK4 stages,
-    the step's end and trial states, the aux values, the chain solves, the blade depths,
+    the step's end and trial states, the aux values, the blade depths,
     the switching functions and the delayed signals.
 
     The kernel's non-inlined functions take the one scratch array and name its rows with
-    :func:`_views` (free: views are pointer arithmetic); a tuple of nineteen arrays passed
+    :func:`_views` (free: views are pointer arithmetic); a tuple of fifteen arrays passed
     by value through every call cost more than the right-hand side of a small model."""
 
     k1: np.ndarray
@@ -341,10 +338,6 @@ class Work(NamedTuple):
     x_end: np.ndarray
     x_try: np.ndarray
     aux: np.ndarray
-    ra: np.ndarray
-    ya: np.ndarray
-    rt: np.ndarray
-    yt: np.ndarray
     depths: np.ndarray
     read: np.ndarray
     g: np.ndarray
@@ -373,14 +366,11 @@ def _work(n, na, nt, groups):
 def _views(work):
     """The :class:`Work` views of the scratch array."""
     n = int(work[_SIZES_ROW, 0])
-    na = int(work[_SIZES_ROW, 1])
-    nt = int(work[_SIZES_ROW, 2])
     groups = int(work[_SIZES_ROW, 3])
     return Work(work[0, :n], work[1, :n], work[2, :n], work[3, :n], work[4, :n], work[5, :n],
-                work[6, :n], work[7, :N_AUX], work[8, :na], work[9, :na], work[10, :nt],
-                work[11, :nt], work[12, :groups], work[13, :3], work[14, :3 + groups],
-                work[15, :3 + groups], work[16, :N_SIGNALS], work[17, :N_SIGNALS],
-                work[18, :N_SIGNALS])
+                work[6, :n], work[7, :N_AUX], work[8, :groups], work[9, :3],
+                work[10, :3 + groups], work[11, :3 + groups], work[12, :N_SIGNALS],
+                work[13, :N_SIGNALS], work[14, :N_SIGNALS])
 
 
 @kernel_jit(inline='always')
@@ -450,16 +440,15 @@ def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
     psi = top.psi
     u = x[0:na]
     v = x[na:2 * na]
-    ra, ya = w.ra, w.ya
-    _internal_force(A, u, v, ra)
-    ra[0] += psi * inp[IN_AXIAL_FORCE] + top.k_a * x[nt_off + 2] + top.c_a * z_p_dot
+    ya = dx[na:2 * na]
+    f_top = psi * inp[IN_AXIAL_FORCE] + top.k_a * x[nt_off + 2] + top.c_a * z_p_dot
     if top.z_a > 0.0:
         # lumped model III: pipe force = radiation force of the bit velocity one wave round
         # trip earlier (single-mass chains: DOF 0 is the bit)
         sample_at_time(th, thm, tau - top.tau_a, w.delayed)
-        ra[0] -= top.z_a * (w.delayed[S_BIT_AXIAL_SPEED] - top.upsilon_o)
+        f_top -= top.z_a * (w.delayed[S_BIT_AXIAL_SPEED] - top.upsilon_o)
     if mode[MD_AX] == AX_STUCK:
-        _solve(A, ra, ya)
+        accelerations(A, u, v, f_top, 0.0, ya)
         lam_c = ya[na - 1] / A[CH_Z, na - 1]
         w_req = top.W_o + lam_c / psi
         for i in range(na):
@@ -468,13 +457,11 @@ def _axial(tau, x, mode, law, top, inp, A, th, thm, cut, cap, z_p_dot, dx, w):
         w_bit = w_req
     else:
         w_bit = bit_weight(cut, sliding_wear_flat(mode[MD_AX], cap))
-        ra[na - 1] -= psi * (w_bit - top.W_o)
-        _solve(A, ra, ya)
+        accelerations(A, u, v, f_top, -psi * (w_bit - top.W_o), ya)
         # the reaction a stuck bit would need (for the switching functions)
         w_req = top.W_o + (ya[na - 1] / A[CH_Z, na - 1]) / psi + (w_bit - top.W_o)
     for i in range(na):
         dx[i] = v[i]
-        dx[na + i] = ya[i]
     w.aux[X_W] = w_bit
     w.aux[X_WREQ] = w_req
 
@@ -526,16 +513,15 @@ def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot
     d = 2 * na + 2 * nt
     ph = x[2 * na:2 * na + nt]
     om = x[2 * na + nt:d]
-    rt, yt = w.rt, w.yt
-    _internal_force(T, ph, om, rt)
-    rt[0] += top.k_t * x[d] + top.c_t * om_p + top.m_t * om_p_dot
+    yt = dx[2 * na + nt:d]
+    f_top = top.k_t * x[d] + top.c_t * om_p + top.m_t * om_p_dot
     if top.drive_pi > 0.0:
-        rt[0] += _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na) - top.T_o
+        f_top += _motor_drive(tau, x, top, T, th, thm, om_p, dx, w, na) - top.T_o
     if top.z_t > 0.0:
         sample_at_time(th, thm, tau - top.tau_t, w.delayed)
-        rt[0] -= top.z_t * (w.delayed[S_BIT_ANGULAR_SPEED] - top.omega_o)
+        f_top -= top.z_t * (w.delayed[S_BIT_ANGULAR_SPEED] - top.omega_o)
     if mode[MD_ANG] == ANG_STICK:
-        _solve(T, rt, yt)
+        accelerations(T, ph, om, f_top, 0.0, yt)
         lam_c = yt[nt - 1] / T[CH_Z, nt - 1]
         t_req = top.T_o + lam_c
         for i in range(nt):
@@ -544,12 +530,10 @@ def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot
         t_bit = t_req
     else:
         t_bit = bit_torque(cut, w_f, law.beta)
-        rt[nt - 1] -= t_bit - top.T_o
-        _solve(T, rt, yt)
+        accelerations(T, ph, om, f_top, -(t_bit - top.T_o), yt)
         t_req = t_bit + yt[nt - 1] / T[CH_Z, nt - 1]
     for i in range(nt):
         dx[2 * na + i] = om[i]
-        dx[2 * na + nt + i] = yt[i]
     w.aux[X_T] = t_bit
     w.aux[X_TREQ] = t_req
 

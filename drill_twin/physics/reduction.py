@@ -118,9 +118,12 @@ def _arrow(matrix: np.ndarray, name: str) -> np.ndarray:
 
 def reduce_chain(chain: Chain, cutoff: float = DEFAULT_CUTOFF) -> ReducedChain:
     """Craig–Bampton reduction of ``chain`` keeping its top and bit DOFs and the interior
-    modes with fixed-interface frequency ≤ ``cutoff`` [rad per t*] (at least two)."""
-    if not (np.isfinite(cutoff) and cutoff > 0):
-        raise ParameterError(f'modal cut-off must be finite and > 0, got {cutoff!r}')
+    modes with fixed-interface frequency ≤ ``cutoff`` [rad per t*] (at least two).
+    ``cutoff = inf`` keeps every mode: the chain's *complete* modal coordinates, an exact
+    change of coordinates (``basis`` square and invertible) whose arrow matrices the kernel
+    steps with independent per-mode loops instead of the sequential Thomas recurrences."""
+    if not cutoff > 0:
+        raise ParameterError(f'modal cut-off must be > 0, got {cutoff!r}')
     n = chain.n
     if n < MIN_REDUCED_DOFS:
         raise ParameterError(f'a chain of {n} DOFs is too small to reduce')
@@ -143,10 +146,11 @@ def reduce_chain(chain: Chain, cutoff: float = DEFAULT_CUTOFF) -> ReducedChain:
 
 def reduce_model(model: StringModel, cutoff: float = DEFAULT_CUTOFF) -> StringModel:
     """``model`` with every chain of more than :data:`MIN_REDUCED_DOFS` DOFs reduced
-    (:func:`reduce_chain`); the name says the cut-off."""
+    (:func:`reduce_chain`); the name says the cut-off (``_modal``: every mode kept)."""
     def red(chain):
         if chain is None or chain.n <= MIN_REDUCED_DOFS + 2:
             return chain
         return reduce_chain(chain, cutoff)
-    return dataclasses.replace(model, name=f'{model.name}_cb{cutoff:g}',
+    suffix = 'modal' if np.isinf(cutoff) else f'cb{cutoff:g}'
+    return dataclasses.replace(model, name=f'{model.name}_{suffix}',
                                axial=red(model.axial), torsional=red(model.torsional))

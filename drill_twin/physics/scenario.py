@@ -368,14 +368,17 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
                     kappa_d=kappa_d, raw=cfg, simulated_model=simulated)
 
 
-#: a reduction that keeps more than this fraction of the chain's DOFs is not worth it
+#: a reduction that keeps more than this fraction of the DOFs is not worth its truncation:
+#: the complete modal coordinates (every mode, no truncation) run instead
 _USEFUL_REDUCTION = 0.75
 
 
 def _simulated_model(model: StringModel, sim: dict) -> StringModel | None:
-    """The Craig–Bampton reduction of a finite-element string when ``simulation.reduction``
-    asks for it (``auto``: with ``time_step: auto``, when it removes at least a quarter of
-    the DOFs), else None (the model itself)."""
+    """The Craig–Bampton form of a finite-element string that ``simulation.reduction`` asks
+    for, else None (the model itself).  ``auto`` (with ``time_step: auto``): the reduction
+    at the cut-off when it removes at least a quarter of the DOFs, else the string's
+    complete modal coordinates (every mode kept: the same trajectory, fewer sequential
+    operations per step; docs/physics.md §5b)."""
     mode = sim.get('reduction', 'auto')
     if mode == 'craig_bampton' and model.element_lengths_m is None:
         raise ParameterError(f'simulation.reduction = craig_bampton: model {model.name} is '
@@ -387,7 +390,10 @@ def _simulated_model(model: StringModel, sim: dict) -> StringModel | None:
     dofs = [(c.n, getattr(c, 'full', c).n) for c in (reduced.axial, reduced.torsional)
             if c is not None]
     if mode == 'auto' and sum(r for r, _ in dofs) > _USEFUL_REDUCTION * sum(f for _, f in dofs):
-        return None
+        complete = reduce_model(model, math.inf)
+        if complete.axial is model.axial and complete.torsional is model.torsional:
+            return None                 # chains too small for the arrow form
+        return complete
     return reduced
 
 
