@@ -252,8 +252,8 @@ def bench_scaling(smoke):
                       np.log([p for n, p in zip(sizes, per_sim) if n >= 64]), 1)[0]
     row('scaling', f'cost per simulated second vs elements ({max(64, sizes[0])}..{sizes[-1]})',
         f'{e_64:.2f}', 'exponent', '<= 1.1', bool(e_64 <= 1.1),
-        f'{sizes[0]}..{sizes[-1]}: {e_sim:.2f}; time_step auto: full chain up to ~100 '
-        'elements, Craig-Bampton reduction above (docs/physics.md §5b)')
+        f'{sizes[0]}..{sizes[-1]}: {e_sim:.2f}; time_step auto: complete modal coordinates '
+        'up to ~100 elements, Craig-Bampton reduction above (docs/physics.md §5b)')
 
 
 # --- 3: peers ------------------------------------------------------------------------
