@@ -234,10 +234,15 @@ def _pack_arrow(chain, out):
 def accelerations(ch, q, qd, f_top, f_bit, out):
     """The chain's accelerations ``out = M⁻¹ (e_top f_top + e_bit f_bit − C q̇ − K q)``:
     every external force on a chain acts on its top DOF (drives, hook load) or its bit DOF
-    (the interface law).  Tridiagonal chains: the Thomas recurrences with the precomputed
-    factors; arrow chains: :func:`_accelerations_arrow`."""
+    (the interface law).  A single mass: a few multiply-adds; tridiagonal chains: the
+    Thomas recurrences with the precomputed factors; arrow chains:
+    :func:`_accelerations_arrow`."""
     n = q.size
     if n == 0:
+        return
+    if n == 1:      # a lumped mass (RGD): top and bit are the one DOF
+        out[0] = ((-(ch[CH_C + 1, 0] * qd[0] + ch[CH_K + 1, 0] * q[0]) + f_top) + f_bit) \
+            * ch[CH_INV, 0]
         return
     if ch[CH_FORM, 0] == FORM_ARROW:
         _accelerations_arrow(ch, q, qd, f_top, f_bit, out)
