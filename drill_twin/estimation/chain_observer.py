@@ -259,12 +259,21 @@ class ChainObserver:
         B[ne:ne + n, 1] = Minv @ self._w
         self.A, self.B, self.H = A, B, H
         self.F, self.G, Qd = self._discretise(A, B, force_rate_std ** 2, self.period_s)
+        # The measured input's noise n (held over the next period) enters the process as
+        # −G n and the measurement of this sample as −D n: the measurement noise is
+        # n_y − D n with variance R, correlated with the next period's process noise
+        # (cross-covariance N).  The Riccati equation with the cross term is the plain one
+        # of F − N R⁻¹ H and Q − N R⁻¹ Nᵀ; the next prediction adds N S⁻¹ ν.
         Qd += input_std ** 2 * np.outer(self.G[:, 0], self.G[:, 0])
         self.Qd = Qd
-        R = output_std ** 2
-        P = filter_riccati(self.F, H, Qd, R)
+        R = output_std ** 2 + (self.D * input_std) ** 2
+        N = input_std ** 2 * self.D * self.G[:, 0]
+        P = filter_riccati(self.F - np.outer(N, H) / R, H, Qd - np.outer(N, N) / R, R)
         s = float(H @ P @ H) + R
         self.gain = P @ H / s
+        self.cross_gain = N / s
+        self._no_correction = np.zeros(nx)          # never written to
+        self._pending = self._no_correction
         self.innovation_var = s
         self.prior_P = P
         self.P = P - np.outer(self.gain, H @ P)            # after the update
@@ -319,6 +328,7 @@ class ChainObserver:
         x[:ne] = np.linalg.lstsq(self._S.T * self._k, loads, rcond=None)[0]
         self.x = x
         self._u = float(u)
+        self._pending = self._no_correction
 
     def continue_from(self, other: ChainObserver) -> ChainObserver:
         """Take over the state and held input of a filter of the same chain (re-tuned
@@ -326,11 +336,13 @@ class ChainObserver:
         if other.nx != self.nx:
             raise ValueError('the filters model different chains')
         self.x, self._u = other.x.copy(), other._u
+        self._pending = other._pending.copy()
         return self
 
     def predict(self):
         """Advance one period with the input held (no measurement)."""
-        self.x = self.F @ self.x + self.G[:, 0] * self._u + self.G[:, 1]
+        self.x = self.F @ self.x + self.G[:, 0] * self._u + self.G[:, 1] + self._pending
+        self._pending = self._no_correction
 
     def update(self, u: float, y: float) -> float:
         """Advance one period with the input ``u`` held since the last sample, then correct
@@ -338,6 +350,7 @@ class ChainObserver:
         self.predict()
         nu = y - (self.H @ self.x + self.D * u)
         self.x = self.x + self.gain * nu
+        self._pending = self.cross_gain * nu      # the held input's noise, seen in ν
         self._u = float(u)
         return nu
 

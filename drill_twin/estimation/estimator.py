@@ -299,7 +299,10 @@ class DownholeEstimator:
         power (the exact model's own fits gain 5-15 %: their few-% bias in BHA inertia
         would only cost accuracy), the estimator continues on the fitted string; the
         state (deformations, velocities, bit torque) carries over — the fitted chain has
-        the same elements."""
+        the same elements.  A fit of data without excitation (``fit.identifiable`` False)
+        says nothing about the string: it changes nothing."""
+        if not fit.identifiable:
+            return
         previous, self.last_fit = self.last_fit, fit
         if previous is None or not _same_string(previous, fit,
                                                 self.tuning.mismatch_tolerance / 2):

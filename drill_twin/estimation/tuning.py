@@ -2,13 +2,22 @@
 (docs/estimation.md §5).
 
 A prediction-error fit: among strings that differ from the estimator's model by a BHA
-inertia scale ``a``, a stiffness scale ``b`` of the whole string and an added
+inertia scale ``a``, a torsional stiffness scale ``b`` of the pipe (the elements above the
+BHA) and an added
 stiffness-proportional damping ``θ_add`` [s], find the one whose steady-state Kalman
 filter predicts the measured surface torque best from the measured top speed (least mean
 squared one-step innovation; the bit torque stays an unknown random walk, so the fit
 never needs the bit law).  The identified string's first torsional mode (clamped at the
 top drive, free at the bit: ``det(K − ω² M) = 0``, Rayleigh damping ratio
 ``ζ = η/(2ω) + θω/2``) is what a driller reads as "the string's frequency and damping".
+
+The fit needs excitation: its information is the surface torque's fluctuation beyond the
+sensor noise.  Where that fluctuation is below the noise (steady drilling), the
+fluctuations of the *measured* speed are mostly sensor noise, which the filter takes as
+the string's input: the best predictor is then a string that hardly responds to its
+input (an errors-in-variables bias; measured: BHA inertia ×4 and stiffness ×1/4, the
+bounds, "improving" the prediction by 27-50 %).  Such data are not fitted
+(``TorsionalFit.identifiable`` False).
 
 The mismatch test compares models, not absolute χ² levels (the bit torque jumps at
 every stick-slip transition make the innovations heavy-tailed, so the χ² level of even
@@ -43,15 +52,18 @@ class FirstMode:
 class TorsionalFit:
     """Result of :func:`fit_torsional`.
 
-    ``bha_inertia_scale``, ``stiffness_scale``, ``damping_add_s``: the identified string
-    relative to the model; ``model_mode`` / ``fitted_mode``: first modes; ``power_model``,
-    ``power_fit``: mean squared innovation of the surface torque [N²·m²] of the model and
-    of the fit; ``improvement = 1 − power_fit/power_model``; ``mismatch``: the test of
-    the module docstring; ``duration_s``: data used; ``evaluations``: filters run.
+    ``bha_inertia_scale``, ``pipe_stiffness_scale``, ``damping_add_s``: the identified
+    string relative to the model; ``model_mode`` / ``fitted_mode``: first modes;
+    ``power_model``, ``power_fit``: mean squared innovation of the surface torque
+    [N²·m²] of the model and of the fit; ``improvement = 1 − power_fit/power_model``;
+    ``mismatch``: the test of the module docstring; ``duration_s``: data used;
+    ``evaluations``: filters run; ``torque_snr``: variance of the measured surface torque
+    beyond the sensor noise, over the noise's; ``identifiable``: ``torque_snr ≥ 1`` (else
+    nothing was fitted and the fit is the model).
     """
 
     bha_inertia_scale: float
-    stiffness_scale: float
+    pipe_stiffness_scale: float
     damping_add_s: float
     model_mode: FirstMode
     fitted_mode: FirstMode
@@ -61,17 +73,20 @@ class TorsionalFit:
     mismatch: bool
     duration_s: float
     evaluations: int
+    torque_snr: float
+    identifiable: bool
 
     def axis(self, model: AxisModel) -> AxisModel:
         """The identified string (``model`` re-scaled)."""
-        return model.scaled(bha_mass=self.bha_inertia_scale, stiffness=self.stiffness_scale,
+        return model.scaled(bha_mass=self.bha_inertia_scale,
+                            pipe_stiffness=self.pipe_stiffness_scale,
                             theta_add_s=self.damping_add_s)
 
     def as_dict(self) -> dict:
-        out = {k: getattr(self, k) for k in ('bha_inertia_scale', 'stiffness_scale',
+        out = {k: getattr(self, k) for k in ('bha_inertia_scale', 'pipe_stiffness_scale',
                                              'damping_add_s', 'power_model', 'power_fit',
                                              'improvement', 'mismatch', 'duration_s',
-                                             'evaluations')}
+                                             'evaluations', 'torque_snr', 'identifiable')}
         out['model_first_mode_hz'] = self.model_mode.frequency_hz
         out['model_first_mode_damping'] = self.model_mode.damping_ratio
         out['fitted_first_mode_hz'] = self.fitted_mode.frequency_hz
@@ -97,17 +112,19 @@ def innovation_power(axis: AxisModel, speed: np.ndarray, torque: np.ndarray, rat
     obs = ChainObserver(axis, 1.0 / rate_hz, speed_std, torque_std, torque_rate)
     obs.start(speed[0], torque[0])
     return _mean_squared_innovation(obs.F, obs.G[:, 0].copy(), obs.G[:, 1].copy(), obs.H,
-                                    obs.gain, obs.D, obs.x.copy(), speed, torque,
-                                    int(skip_s * rate_hz))
+                                    obs.gain, obs.cross_gain, obs.D, obs.x.copy(), speed,
+                                    torque, int(skip_s * rate_hz))
 
 
 @numba.njit(cache=False, nogil=True)
-def _mean_squared_innovation(F, g_speed, g_const, H, gain, D, x, speed, torque, skip):
+def _mean_squared_innovation(F, g_speed, g_const, H, gain, cross_gain, D, x, speed, torque,
+                             skip):
     """The steady-state filter's recursion (``ChainObserver.update``) over the samples;
     mean of the squared innovations from sample ``skip`` on."""
     total, count = 0.0, 0
+    nu = 0.0
     for i in range(1, speed.size):
-        x = F @ x + g_speed * speed[i - 1] + g_const
+        x = F @ x + g_speed * speed[i - 1] + g_const + cross_gain * nu
         nu = torque[i] - (H @ x + D * speed[i])
         x = x + gain * nu
         if i >= skip:
@@ -147,7 +164,7 @@ def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_
     evaluations = 0
 
     def axis_of(p):
-        return model.scaled(bha_mass=math.exp(p[0]), stiffness=math.exp(p[1]),
+        return model.scaled(bha_mass=math.exp(p[0]), pipe_stiffness=math.exp(p[1]),
                             theta_add_s=max(theta_scale * (math.exp(p[2]) - 1.0),
                                             -model.theta))
 
@@ -165,19 +182,24 @@ def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_
 
     p0 = np.zeros(3)
     base = cost(p0)
-    result = minimize(cost, p0, method='Nelder-Mead',
-                      options={'maxfev': max_evaluations, 'xatol': 0.01, 'fatol': 1e-4,
-                               'initial_simplex': p0 + np.vstack([np.zeros(3),
-                                                                  0.25 * np.eye(3)])})
-    p = result.x if result.fun < base else p0
+    snr = float(np.var(torque)) / torque_std ** 2 - 1.0
+    p, best = p0, base
+    if snr >= 1.0:                  # else: no excitation, the model stands (docstring)
+        result = minimize(cost, p0, method='Nelder-Mead',
+                          options={'maxfev': max_evaluations, 'xatol': 0.01, 'fatol': 1e-4,
+                                   'initial_simplex': p0 + np.vstack([np.zeros(3),
+                                                                      0.25 * np.eye(3)])})
+        if result.fun < base:
+            p, best = result.x, result.fun
     fitted = axis_of(p)
-    power_model, power_fit = math.exp(base), math.exp(min(result.fun, base))
+    power_model, power_fit = math.exp(base), math.exp(best)
     improvement = 1.0 - power_fit / power_model
     mode0, mode1 = first_mode(model), first_mode(fitted)
     off = max(abs(mode1.frequency_hz / mode0.frequency_hz - 1.0), abs(math.exp(p[0]) - 1.0))
-    return TorsionalFit(bha_inertia_scale=math.exp(p[0]), stiffness_scale=math.exp(p[1]),
+    return TorsionalFit(bha_inertia_scale=math.exp(p[0]), pipe_stiffness_scale=math.exp(p[1]),
                         damping_add_s=fitted.theta - model.theta,
                         model_mode=mode0, fitted_mode=mode1, power_model=power_model,
                         power_fit=power_fit, improvement=improvement,
                         mismatch=bool(improvement >= min_improvement and off > tolerance),
+                        torque_snr=snr, identifiable=snr >= 1.0,
                         duration_s=speed.size / rate_hz, evaluations=evaluations)

@@ -130,13 +130,7 @@ class EstimatorNode(Node):
             else:
                 self.est.apply_fit(fit, retune=self._param('self_tuning_apply'))
                 self.fits += 1
-                self.get_logger().info(
-                    f'self-tuning: first mode {fit.fitted_mode.frequency_hz:.4f} Hz '
-                    f'(model {fit.model_mode.frequency_hz:.4f}), damping '
-                    f'{fit.fitted_mode.damping_ratio:.2e}, BHA inertia x'
-                    f'{fit.bha_inertia_scale:.3f}, stiffness x{fit.stiffness_scale:.3f}, '
-                    f'innovation power -{100 * fit.improvement:.0f} %'
-                    + ('; MODEL MISMATCH' if fit.mismatch else ''))
+                self.get_logger().info(_fit_summary(fit))
             self._fit_future = None
         if period <= 0 or self._fit_future is not None:
             return
@@ -162,7 +156,7 @@ class EstimatorNode(Node):
                           fitted_first_mode_hz=f'{fit.fitted_mode.frequency_hz:.5g}',
                           fitted_first_mode_damping=f'{fit.fitted_mode.damping_ratio:.3g}',
                           fitted_bha_inertia_scale=f'{fit.bha_inertia_scale:.4g}',
-                          fitted_stiffness_scale=f'{fit.stiffness_scale:.4g}',
+                          fitted_pipe_stiffness_scale=f'{fit.pipe_stiffness_scale:.4g}',
                           innovation_power_reduction=f'{fit.improvement:.3g}')
         if self.watch.silent:
             level, message = 1, ('surface torque stopped: estimates held' if
@@ -186,9 +180,22 @@ def _nan(value):
     return math.nan if value is None else value
 
 
+def _fit_summary(fit) -> str:
+    """One log line for a self-tuning fit."""
+    if not fit.identifiable:
+        return ('self-tuning: no excitation (the surface torque varies within its sensor '
+                f'noise, SNR {fit.torque_snr:.2g}), model kept')
+    return (f'self-tuning: first mode {fit.fitted_mode.frequency_hz:.4f} Hz '
+            f'(model {fit.model_mode.frequency_hz:.4f}), damping '
+            f'{fit.fitted_mode.damping_ratio:.2e}, BHA inertia x{fit.bha_inertia_scale:.3f}, '
+            f'pipe stiffness x{fit.pipe_stiffness_scale:.3f}, innovation power '
+            f'-{100 * fit.improvement:.0f} %' + ('; MODEL MISMATCH' if fit.mismatch else ''))
+
+
 def main(args=None):
     return run_node(EstimatorNode, 'downhole_estimator', args)
 
 
 if __name__ == '__main__':
     raise SystemExit(main())
+
