@@ -2,22 +2,23 @@
 (docs/estimation.md §5).
 
 A prediction-error fit: among strings that differ from the estimator's model by a BHA
-inertia scale ``a``, a torsional stiffness scale ``b`` of the pipe (the elements above the
-BHA) and an added
-stiffness-proportional damping ``θ_add`` [s], find the one whose steady-state Kalman
-filter predicts the measured surface torque best from the measured top speed (least mean
-squared one-step innovation; the bit torque stays an unknown random walk, so the fit
-never needs the bit law).  The identified string's first torsional mode (clamped at the
-top drive, free at the bit: ``det(K − ω² M) = 0``, Rayleigh damping ratio
-``ζ = η/(2ω) + θω/2``) is what a driller reads as "the string's frequency and damping".
+inertia scale ``a``, a torsional stiffness scale ``b`` of the pipe (the elements above
+the BHA) and an added stiffness-proportional damping ``θ_add`` [s], find the one whose
+steady-state Kalman filter predicts the measured surface torque best from the measured
+top speed (least mean squared one-step innovation; the bit torque stays an unknown
+random walk, so the fit never needs the bit law). The identified string's first
+torsional mode (clamped at the top drive, free at the bit: ``det(K − ω² M) = 0``,
+Rayleigh damping ratio ``ζ = η/(2ω) + θω/2``) is what a driller reads as "the string's
+frequency and damping".
 
 The fit needs excitation: its information is the surface torque's fluctuation beyond the
 sensor noise.  Where that fluctuation is below the noise (steady drilling), the
 fluctuations of the *measured* speed are mostly sensor noise, which the filter takes as
 the string's input: the best predictor is then a string that hardly responds to its
 input (an errors-in-variables bias; measured: BHA inertia ×4 and stiffness ×1/4, the
-bounds, "improving" the prediction by 27-50 %).  Such data are not fitted
-(``TorsionalFit.identifiable`` False).
+bounds, "improving" the prediction by 27-50 %).  Data whose torque variance exceeds the
+noise variance by less than :data:`MIN_TORQUE_SNR` times the noise variance are not
+fitted (``TorsionalFit.identifiable`` False).
 
 The mismatch test compares models, not absolute χ² levels (the bit torque jumps at
 every stick-slip transition make the innovations heavy-tailed, so the χ² level of even
@@ -37,7 +38,13 @@ from scipy.optimize import minimize
 
 from .chain_observer import AxisModel, ChainObserver
 
-__all__ = ['FirstMode', 'TorsionalFit', 'first_mode', 'innovation_power', 'fit_torsional']
+__all__ = ['MIN_TORQUE_SNR', 'FirstMode', 'TorsionalFit', 'first_mode', 'innovation_power',
+           'fit_torsional']
+
+#: least signal-to-noise ratio of the surface torque (variance beyond the sensor noise over
+#: the noise variance) for a window to be fitted: the string's response at least as large
+#: as the noise (measured: steady drilling −0.07…0.38, developed stick-slip 10³–10⁴)
+MIN_TORQUE_SNR = 1.0
 
 
 @dataclass(frozen=True)
@@ -58,7 +65,8 @@ class TorsionalFit:
     [N²·m²] of the model and of the fit; ``improvement = 1 − power_fit/power_model``;
     ``mismatch``: the test of the module docstring; ``duration_s``: data used;
     ``evaluations``: filters run; ``torque_snr``: variance of the measured surface torque
-    beyond the sensor noise, over the noise's; ``identifiable``: ``torque_snr ≥ 1`` (else
+    beyond the sensor noise, over the noise's; ``identifiable``: ``torque_snr ≥
+    MIN_TORQUE_SNR`` (else
     nothing was fitted and the fit is the model).
     """
 
@@ -184,7 +192,7 @@ def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_
     base = cost(p0)
     snr = float(np.var(torque)) / torque_std ** 2 - 1.0
     p, best = p0, base
-    if snr >= 1.0:                  # else: no excitation, the model stands (docstring)
+    if snr >= MIN_TORQUE_SNR:       # else: no excitation, the model stands (docstring)
         result = minimize(cost, p0, method='Nelder-Mead',
                           options={'maxfev': max_evaluations, 'xatol': 0.01, 'fatol': 1e-4,
                                    'initial_simplex': p0 + np.vstack([np.zeros(3),
@@ -201,5 +209,5 @@ def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_
                         model_mode=mode0, fitted_mode=mode1, power_model=power_model,
                         power_fit=power_fit, improvement=improvement,
                         mismatch=bool(improvement >= min_improvement and off > tolerance),
-                        torque_snr=snr, identifiable=snr >= 1.0,
+                        torque_snr=snr, identifiable=snr >= MIN_TORQUE_SNR,
                         duration_s=speed.size / rate_hz, evaluations=evaluations)
