@@ -272,8 +272,7 @@ class ChainObserver:
         s = float(H @ P @ H) + R
         self.gain = P @ H / s
         self.cross_gain = N / s
-        self._no_correction = np.zeros(nx)          # never written to
-        self._pending = self._no_correction
+        self._nu = 0.0            # the last innovation, until the next prediction uses it
         self.innovation_var = s
         self.prior_P = P
         self.P = P - np.outer(self.gain, H @ P)            # after the update
@@ -328,7 +327,7 @@ class ChainObserver:
         x[:ne] = np.linalg.lstsq(self._S.T * self._k, loads, rcond=None)[0]
         self.x = x
         self._u = float(u)
-        self._pending = self._no_correction
+        self._nu = 0.0
 
     def continue_from(self, other: ChainObserver) -> ChainObserver:
         """Take over the state and held input of a filter of the same chain (re-tuned
@@ -336,13 +335,14 @@ class ChainObserver:
         if other.nx != self.nx:
             raise ValueError('the filters model different chains')
         self.x, self._u = other.x.copy(), other._u
-        self._pending = other._pending.copy()
+        self._nu = other._nu
         return self
 
     def predict(self):
         """Advance one period with the input held (no measurement)."""
-        self.x = self.F @ self.x + self.G[:, 0] * self._u + self.G[:, 1] + self._pending
-        self._pending = self._no_correction
+        self.x = (self.F @ self.x + self.G[:, 0] * self._u + self.G[:, 1]
+                  + self.cross_gain * self._nu)
+        self._nu = 0.0
 
     def update(self, u: float, y: float) -> float:
         """Advance one period with the input ``u`` held since the last sample, then correct
@@ -350,7 +350,7 @@ class ChainObserver:
         self.predict()
         nu = y - (self.H @ self.x + self.D * u)
         self.x = self.x + self.gain * nu
-        self._pending = self.cross_gain * nu      # the held input's noise, seen in ν
+        self._nu = nu             # the held input's noise, seen in ν, enters the next step
         self._u = float(u)
         return nu
 
