@@ -37,7 +37,7 @@ from scipy.linalg import expm, solve
 
 from ..physics.models import Chain, StringModel
 
-__all__ = ['AxisModel', 'torsional_axis', 'axial_axis', 'ChainObserver']
+__all__ = ['AxisModel', 'torsional_axis', 'axial_axis', 'Lookahead', 'ChainObserver']
 
 
 @dataclass
@@ -206,6 +206,22 @@ def filter_riccati(F: np.ndarray, H: np.ndarray, Q: np.ndarray, R: float,
                           'model observable from the surface torque?)')
 
 
+@dataclass(frozen=True)
+class Lookahead:
+    """The predicted mean and standard deviation of one state at ``m`` instants
+    ``t_k + jΔt/m`` (j = 1..m) of the coming sample period, given the posterior at
+    ``t_k`` and the input held: ``mean_j = rows[j] · x + input[j] u + const[j]``."""
+
+    rows: np.ndarray
+    input: np.ndarray
+    const: np.ndarray
+    std: np.ndarray
+
+    def lowest(self, x: np.ndarray, u: float, z: float) -> float:
+        """Least ``mean_j − z std_j`` over the period."""
+        return float(np.min(self.rows @ x + self.input * u + self.const - z * self.std))
+
+
 class ChainObserver:
     """Steady-state Kalman filter of one axis at a fixed sample period.
 
@@ -231,6 +247,7 @@ class ChainObserver:
                              'force_rate_std > 0')
         self.axis = axis
         self.period_s = float(period_s)
+        self.input_std, self.force_rate_std = float(input_std), float(force_rate_std)
         M, C, K, k_top, c_top = axis.matrices()
         self._M, self._C, self._k_top, self._c_top = M, C, k_top, c_top
         self._w = axis.w if axis.w is not None else np.zeros(axis.n)
@@ -353,6 +370,27 @@ class ChainObserver:
         self._nu = nu             # the held input's noise, seen in ν, enters the next step
         self._u = float(u)
         return nu
+
+    def lookahead(self, index: int, steps: int) -> Lookahead:
+        """State ``index`` predicted at ``steps`` instants evenly spaced over the coming
+        period (the last one the next sample's prior): the hold's transition over
+        ``Δt/steps`` applied ``j`` times, the covariance grown from the steady posterior by
+        the same steps (the bit force's random walk and the held input's noise)."""
+        F, G, Q = self._discretise(self.A, self.B, self.force_rate_std ** 2,
+                                   self.period_s / steps)
+        Q = Q + self.input_std ** 2 * np.outer(G[:, 0], G[:, 0])
+        row = np.eye(self.nx)[index]
+        rows, held, const, std = [], [0.0], [0.0], []
+        P = self.P
+        for _ in range(steps):
+            held.append(held[-1] + row @ G[:, 0])
+            const.append(const[-1] + row @ G[:, 1])
+            row = row @ F
+            rows.append(row)
+            P = F @ P @ F.T + Q
+            std.append(np.sqrt(max(P[index, index], 0.0)))
+        return Lookahead(np.array(rows), np.array(held[1:]), np.array(const[1:]),
+                         np.array(std))
 
     def std(self, index: int) -> float:
         """Posterior standard deviation of state ``index``."""

@@ -9,9 +9,11 @@ parameters:
 
 * **no backward rotation** (§3.3): on bottom the bit cannot turn backwards; the estimate
   is projected on ω_bit ≥ 0 with the filter's covariance;
-* **stuck**: the bit's speed is indistinguishable from zero — the estimate is below
-  ``stuck_z`` (1.645: one-sided 95 %) posterior standard deviations (a statistical
-  test, not a velocity threshold: it scales with what the sensors allow);
+* **stuck**: the bit is at rest at some instant of the sample period that begins now
+  (a sampled flag stands for its period, as a published value holds until the next):
+  its speed, estimated now or predicted over the period, is indistinguishable from zero
+  — below ``stuck_z`` (1.645: one-sided 95 %) standard deviations (a statistical test,
+  not a velocity threshold: it scales with what the sensors allow);
 * **stick-slip severity**: (max − min)/(2 mean) of the estimated bit speed over the last
   ``severity_window_s`` (the twin's own definition);
 * **innovation statistics**: the normalised innovation squared ν²/S of each filter
@@ -67,7 +69,9 @@ class EstimatorTuning:
 
     ``torque_rate_Nm``: random-walk intensity of the torque on bit [N·m/√s];
     ``wob_rate_N``: of the weight on bit [N/√s]; ``stuck_z``: the stuck test's number of
-    standard deviations; ``severity_window_s``, ``monitor_window_s`` [s];
+    standard deviations; ``stuck_resolution_s``: the spacing [s] at which the predicted
+    bit speed is tested over each sample period (the stick phases of the twin's runs last
+    from 1 ms to 0.15 s); ``severity_window_s``, ``monitor_window_s`` [s];
     ``tuning_window_s``: surface data kept for self-tuning [s];
     ``tuning_torque_rate_Nm``: the bit-torque random walk of the fit's filters (fast, so
     that the stick-slip torque jumps do not bias the string parameters, §5);
@@ -79,6 +83,7 @@ class EstimatorTuning:
     torque_rate_Nm: float = 10.0
     wob_rate_N: float = 2000.0
     stuck_z: float = 1.645
+    stuck_resolution_s: float = 1e-3
     severity_window_s: float = 10.0
     monitor_window_s: float = 10.0
     tuning_window_s: float = 60.0
@@ -190,8 +195,7 @@ class DownholeEstimator:
         self.noise, self.tuning = noise, tuning
         self.weight_N = scenario.system.buoyed_weight_N()
         self.torsional_model = torsional or torsional_axis(scenario)   # as configured
-        self.active_model = self.torsional_model                           # after tuning
-        self.torsion = self._torsion_filter(self.torsional_model)
+        self._use_torsion(self.torsional_model)
         keep = max(1, round(tuning.tuning_window_s * rate_hz))
         self._history = (deque(maxlen=keep), deque(maxlen=keep))
         self.last_fit: TorsionalFit | None = None
@@ -208,9 +212,18 @@ class DownholeEstimator:
         self.time_s = 0.0
         self.started = False
 
-    def _torsion_filter(self, axis: AxisModel) -> ChainObserver:
-        return ChainObserver(axis, 1.0 / self.rate_hz, self.noise.speed_rad_s,
-                             self.noise.torque_Nm, self.tuning.torque_rate_Nm)
+    def _use_torsion(self, axis: AxisModel):
+        """Estimate on the torsional string ``axis`` (the configured one, or a fit's),
+        continuing from the current filter's state if there is one."""
+        previous = getattr(self, 'torsion', None)
+        self.active_model = axis
+        self.torsion = ChainObserver(axis, 1.0 / self.rate_hz, self.noise.speed_rad_s,
+                                     self.noise.torque_Nm, self.tuning.torque_rate_Nm)
+        if previous is not None:
+            self.torsion.continue_from(previous)
+        steps = max(1, math.ceil(1.0 / (self.rate_hz * self.tuning.stuck_resolution_s)
+                                 - 1e-9))
+        self._speed_ahead = self.torsion.lookahead(self.torsion.bit_velocity, steps)
 
     # --- start -----------------------------------------------------------------------
     def start(self, sample: SurfaceSample):
@@ -244,14 +257,18 @@ class DownholeEstimator:
                 ax.predict()
             wob, wob_std = ax.x[ax.bit_force], ax.std(ax.bit_force)
             rop = ax.x[ax.bit_velocity]
-        if not (wob <= 0.0):   # on bottom (or unknown): the bit does not turn backwards
+        on_bottom = not (wob <= 0.0)     # (or unknown)
+        if on_bottom:                    # the bit does not turn backwards
             tors.clamp_below(tors.bit_velocity, 0.0)
         speed = float(tors.x[tors.bit_velocity])
         speed_std = tors.std(tors.bit_velocity)
+        z = self.tuning.stuck_z
+        stuck = on_bottom and (speed < z * speed_std or self._speed_ahead.lowest(
+            tors.x, sample.surface_speed_rad_s, z) < 0.0)
         low, high, mean = self._speeds.add(speed)
         severity = (high - low) / (2 * mean) if mean > 0 else 0.0
         return Estimate(time_s=self.time_s, bit_speed_rad_s=speed, bit_speed_std=speed_std,
-                        stuck=speed < self.tuning.stuck_z * speed_std,
+                        stuck=stuck,
                         torque_on_bit_Nm=float(tors.x[tors.bit_force]),
                         torque_on_bit_std=tors.std(tors.bit_force),
                         weight_on_bit_N=float(wob), weight_on_bit_std=float(wob_std),
@@ -309,8 +326,7 @@ class DownholeEstimator:
             return
         self.model_mismatch = fit.mismatch and previous.mismatch
         if retune and fit.improvement >= self.tuning.retune_improvement:
-            self.active_model = fit.axis(self.torsional_model)
-            self.torsion = self._torsion_filter(self.active_model).continue_from(self.torsion)
+            self._use_torsion(fit.axis(self.torsional_model))
 
     def self_tune(self, retune: bool = True) -> TorsionalFit:
         """:meth:`fit` on the kept samples, then :meth:`apply_fit`."""

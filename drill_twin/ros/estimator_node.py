@@ -8,7 +8,9 @@ bit, ``surface/hook_load`` [N] and ``surface/block_velocity`` [m/s].  A timer at
 of each (zero-order hold) and updates the filters.  Outputs: ``estimate/bit/velocity``
 (``TwistWithCovarianceStamped``: angular.x the bit speed with its variance at
 covariance[21], linear.x the bit's axial speed), ``estimate/bit/wrench`` (force.x weight
-on bit, torque.x torque on bit), ``estimate/bit/stuck``, ``estimate/stick_slip_severity``
+on bit, torque.x torque on bit), ``estimate/bit/stuck`` (the bit at rest at some instant
+of the sample period that begins: the flag holds until the next sample),
+``estimate/stick_slip_severity``
 and ``/diagnostics`` (innovation statistics, the last self-tuning fit, the model-mismatch
 warning).
 
