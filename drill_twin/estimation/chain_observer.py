@@ -375,7 +375,9 @@ class ChainObserver:
         """State ``index`` predicted at ``steps`` instants evenly spaced over the coming
         period (the last one the next sample's prior): the hold's transition over
         ``Δt/steps`` applied ``j`` times, the covariance grown from the steady posterior by
-        the same steps (the bit force's random walk and the held input's noise)."""
+        the same steps (the bit force's random walk and the held input's noise).  The
+        correlated-noise term of the next prediction (``cross_gain`` times the last
+        innovation) is left out: it is known only as a lump over the whole period."""
         F, G, Q = self._discretise(self.A, self.B, self.force_rate_std ** 2,
                                    self.period_s / steps)
         Q = Q + self.input_std ** 2 * np.outer(G[:, 0], G[:, 0])

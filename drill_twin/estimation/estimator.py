@@ -195,6 +195,7 @@ class DownholeEstimator:
         self.noise, self.tuning = noise, tuning
         self.weight_N = scenario.system.buoyed_weight_N()
         self.torsional_model = torsional or torsional_axis(scenario)   # as configured
+        self.torsion: ChainObserver | None = None
         self._use_torsion(self.torsional_model)
         keep = max(1, round(tuning.tuning_window_s * rate_hz))
         self._history = (deque(maxlen=keep), deque(maxlen=keep))
@@ -215,7 +216,7 @@ class DownholeEstimator:
     def _use_torsion(self, axis: AxisModel):
         """Estimate on the torsional string ``axis`` (the configured one, or a fit's),
         continuing from the current filter's state if there is one."""
-        previous = getattr(self, 'torsion', None)
+        previous = self.torsion
         self.active_model = axis
         self.torsion = ChainObserver(axis, 1.0 / self.rate_hz, self.noise.speed_rad_s,
                                      self.noise.torque_Nm, self.tuning.torque_rate_Nm)

@@ -167,6 +167,9 @@ def fit_torsional(model: AxisModel, speed: np.ndarray, torque: np.ndarray, rate_
         mismatch.
     min_improvement : float
         Relative reduction of the innovation power that counts as a better fit.
+    max_evaluations : int
+        Filter runs of each of the two simplex searches (after the model's and the
+        :data:`PIPE_GRID` runs).
     """
     speed = np.asarray(speed, float)
     torque = np.asarray(torque, float)
