@@ -8,7 +8,8 @@ that.  Errors are measured against the truth at the same instants:
 * bit speed: RMS error / mean bit speed;
 * stick detection: F1 score per 0.1 s window (a window is a stick window when the bit
   is stuck at any instant of it — the benchmark's stick phases last ~30 ms; the
-  estimate's window is a stick window when any of its samples says stuck);
+  estimate's window is a stick window when any of its samples says stuck, each sample's
+  flag standing for its period: :class:`~.estimator.DownholeEstimator`);
 * severity: the largest difference between the estimated and the true severity
   ((max − min)/(2 mean) over 10 s of the bit speed at the estimator's rate), evaluated
   every second;
