@@ -216,6 +216,21 @@ def test_mismatch_warning_fires_for_a_bha_inertia_50_percent_off(slow_rotary):
     assert not exact['model_mismatch'].any()
 
 
+def test_a_bit_off_bottom_is_never_stuck():
+    """Stuck is a state of a bit on the rock: a string hanging still from the hook (hook
+    load = its buoyed weight, weight on bit 0) is at rest, not stuck; the same string set
+    down with 60 kN on bit and not turning is stuck."""
+    from drill_twin.estimation.estimator import SurfaceSample
+    from drill_twin.physics.scenario import load_scenario
+    sc = load_scenario('benchmark_fem')
+    weight = sc.system.buoyed_weight_N()
+    for wob, stuck in ((0.0, False), (60e3, True)):
+        est = DownholeEstimator(sc, 100.0)
+        sample = SurfaceSample(0.0, 0.0 if wob == 0.0 else 2000.0, weight - wob, 0.0)
+        flags = [est.update(sample).stuck for _ in range(200)]
+        assert all(f == stuck for f in flags[100:])
+
+
 def test_running_range_equals_the_window_statistics():
     from drill_twin.estimation.estimator import _RunningRange
     x = np.random.default_rng(1).standard_normal(500)

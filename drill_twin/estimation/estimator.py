@@ -8,7 +8,9 @@ weight on bit) — and adds what follows from the bit/rock interface law without
 parameters:
 
 * **no backward rotation** (§3.3): on bottom the bit cannot turn backwards; the estimate
-  is projected on ω_bit ≥ 0 with the filter's covariance;
+  is projected on ω_bit ≥ 0 with the filter's covariance ("on bottom": the weight on bit
+  is above ``stuck_z`` standard deviations of its estimate, or is not measured; off
+  bottom the bit turns freely and is never stuck);
 * **stuck**: the bit is at rest at some instant of the sample period that begins now
   (a sampled flag stands for its period, as a published value holds until the next):
   its speed, estimated now or predicted over the period, is indistinguishable from zero
@@ -258,12 +260,12 @@ class DownholeEstimator:
                 ax.predict()
             wob, wob_std = ax.x[ax.bit_force], ax.std(ax.bit_force)
             rop = ax.x[ax.bit_velocity]
-        on_bottom = not (wob <= 0.0)     # (or unknown)
-        if on_bottom:                    # the bit does not turn backwards
+        z = self.tuning.stuck_z
+        on_bottom = not (wob <= z * wob_std)   # weight on bit evidently > 0, or unknown
+        if on_bottom:                          # the bit does not turn backwards
             tors.clamp_below(tors.bit_velocity, 0.0)
         speed = float(tors.x[tors.bit_velocity])
         speed_std = tors.std(tors.bit_velocity)
-        z = self.tuning.stuck_z
         stuck = on_bottom and (speed < z * speed_std or self._speed_ahead.lowest(
             tors.x, sample.surface_speed_rad_s, z) < 0.0)
         low, high, mean = self._speeds.add(speed)
