@@ -196,6 +196,23 @@ def test_a_signal_during_construction_exits_cleanly(tmp_path):
     assert early.returncode == 0 and 'Traceback' not in out, out[-3000:]
 
 
+def test_a_node_process_leaves_when_its_shutdown_stalls():
+    """Once ROS is shut down, a node's process leaves within the grace period with exit
+    code 0 and one line, even if its teardown never returns (here: it blocks forever)."""
+    script = ('import threading, rclpy\n'
+              'from drill_twin.ros import entry\n'
+              'entry.SHUTDOWN_GRACE_S = 0.5\n'
+              'entry._NODE_PROCESS[0] = True\n'
+              'rclpy.init()\n'
+              'entry.rclpy_took_over()\n'
+              'rclpy.shutdown()\n'
+              'threading.Event().wait()\n')
+    proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0
+    assert 'shutdown did not finish within 0.5 s' in proc.stderr
+
+
 @pytest.mark.parametrize('executable, param, message', [
     ('twin_node', 'publish_rate_hz:=0.0', 'publish_rate_hz'),
     ('twin_node', 'real_time_factor:=abc', 'real_time_factor'),
