@@ -495,15 +495,11 @@ def bench_estimator(smoke):
         'x real time', '>= 100', factor >= 100, f'{1e6 * wall / n:.0f} us per sample; '
         f'filters built in {build:.2f} s')
     if not smoke:   # on the twin's stick-slip (the noise alone is not fitted: no excitation)
-        from drill_twin.estimation.study import truth_run
-        truth = truth_run('benchmark_fem', [], 200.0)
-        last = slice(-60000, None, 10)
-        noisy_speed = truth.surface_speed_rad_s[last] + est.noise.speed_rad_s * \
-            rng.standard_normal(6000)
-        noisy_torque = truth.surface_torque_Nm[last] + est.noise.torque_Nm * \
-            rng.standard_normal(6000)
+        from drill_twin.estimation.study import sensor_samples, truth_run
+        last = sensor_samples(truth_run('benchmark_fem', [], 200.0), 100.0, est.noise)[-6000:]
         t0 = time.perf_counter()
-        fit = est.fit(noisy_speed, noisy_torque)
+        fit = est.fit(np.array([s.surface_speed_rad_s for s in last]),
+                      np.array([s.surface_torque_Nm for s in last]))
         row('estimator', 'self-tuning fit of 60 s at 100 Hz', f'{time.perf_counter() - t0:.1f}',
             's', '', None, f'{fit.evaluations} filter runs')
 

@@ -200,4 +200,3 @@ def main(args=None):
 
 if __name__ == '__main__':
     raise SystemExit(main())
-
