@@ -171,7 +171,8 @@ ESTIMATE_TOPICS = (
           'estimate', lambda e, st: {'header': _header(st), 'twist': {
               'twist': {'linear': {'x': _finite(e['bit_axial_speed_m_s'])},
                         'angular': {'x': float(e['bit_speed_rad_s'])}},
-              'covariance': _covariance({3: e['bit_speed_std'] ** 2})}}),
+              'covariance': _covariance({0: _finite(e['bit_axial_speed_std']) ** 2,
+                                         3: e['bit_speed_std'] ** 2})}}),
     Topic('estimate/bit/wrench', 'geometry_msgs/msg/WrenchStamped', SENSOR, 'estimate',
           lambda e, st: {'header': _header(st), 'wrench': {
               'force': {'x': _finite(e['weight_on_bit_N'])},

@@ -28,19 +28,21 @@ def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
     subscribed = {name.lstrip('/') for name, _ in
                   est.get_subscriber_names_and_types_by_node('downhole_estimator', '/')}
     assert subscribed - {'parameter_events'} == set(SURFACE_INPUTS)
-    rig.listen('bit/velocity', TwistStamped, _stamped(lambda m: m.twist.angular.x))
+    rig.listen('bit/velocity', TwistStamped,
+               _stamped(lambda m: (m.twist.angular.x, m.twist.linear.x)))
     rig.listen('bit/wrench', WrenchStamped,
                _stamped(lambda m: (m.wrench.torque.x, m.wrench.force.x)))
     rig.listen('estimate/bit/velocity', TwistWithCovarianceStamped,
-               _stamped(lambda m: (m.twist.twist.angular.x, m.twist.covariance[21])))
+               _stamped(lambda m: (m.twist.twist.angular.x, m.twist.covariance[21],
+                                   m.twist.twist.linear.x, m.twist.covariance[0])))
     rig.listen('estimate/bit/wrench', WrenchStamped,
                _stamped(lambda m: (m.wrench.torque.x, m.wrench.force.x)))
     rig.listen('/diagnostics', DiagnosticArray, lambda m: [
         (s.name, s.level, {kv.key: kv.value for kv in s.values}) for s in m.status])
     assert rig.spin_until(lambda: len(rig.data['estimate/bit/velocity']) > 1000, 60)
     assert twin.twin.time_s > 8.0
-    truth = np.array([(t, v) for t, v in rig.data['bit/velocity']])
-    estimate = np.array([(t, v, var) for t, (v, var) in rig.data['estimate/bit/velocity']])
+    truth = np.array([(t, *v) for t, v in rig.data['bit/velocity']])
+    estimate = np.array([(t, *v) for t, v in rig.data['estimate/bit/velocity']])
     late = estimate[estimate[:, 0] > estimate[0, 0] + 3.0]     # after the filter settled
     nearest = np.interp(late[:, 0], truth[:, 0], truth[:, 1])
     mean_speed = truth[:, 1].mean()
@@ -48,6 +50,11 @@ def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
     # truth and estimate are matched by arrival time (up to a tick apart): 10 % of the mean
     assert np.sqrt(np.mean((late[:, 1] - nearest) ** 2)) < 0.1 * mean_speed
     assert np.all(late[:, 2] > 0)                              # a variance is published
+    # the bit's axial speed [m/s] with its variance: the error is as large as it says
+    axial_error = late[:, 3] - np.interp(late[:, 0], truth[:, 0], truth[:, 2])
+    axial_std = np.sqrt(late[:, 4].mean())
+    assert np.all(late[:, 4] > 0)
+    assert np.sqrt(np.mean(axial_error ** 2)) < 3 * axial_std
     true_wrench = np.array([w for _, w in rig.data['bit/wrench']])
     est_wrench = np.array([w for _, w in rig.data['estimate/bit/wrench']][-300:])
     assert est_wrench[:, 0].mean() == pytest.approx(true_wrench[:, 0].mean(), rel=0.1)

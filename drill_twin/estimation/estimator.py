@@ -118,6 +118,7 @@ class Estimate:
     weight_on_bit_N: float
     weight_on_bit_std: float
     bit_axial_speed_m_s: float
+    bit_axial_speed_std: float
     stick_slip_severity: float
     nis_torsional: float
     nis_axial: float
@@ -250,7 +251,7 @@ class DownholeEstimator:
         self._history[1].append(sample.surface_torque_Nm)
         nis_t = self._nis['torsional'].add(nu * nu / tors.innovation_var)
         nis_a = math.nan
-        wob, wob_std, rop = math.nan, math.nan, math.nan
+        wob, wob_std, rop, rop_std = math.nan, math.nan, math.nan, math.nan
         ax = self.axial
         if ax is not None:
             if math.isfinite(sample.hook_load_N) and math.isfinite(sample.block_velocity_m_s):
@@ -259,7 +260,7 @@ class DownholeEstimator:
             else:
                 ax.predict()
             wob, wob_std = ax.x[ax.bit_force], ax.std(ax.bit_force)
-            rop = ax.x[ax.bit_velocity]
+            rop, rop_std = ax.x[ax.bit_velocity], ax.std(ax.bit_velocity)
         z = self.tuning.stuck_z
         on_bottom = not (wob <= z * wob_std)   # weight on bit evidently > 0, or unknown
         if on_bottom:                          # the bit does not turn backwards
@@ -275,7 +276,8 @@ class DownholeEstimator:
                         torque_on_bit_Nm=float(tors.x[tors.bit_force]),
                         torque_on_bit_std=tors.std(tors.bit_force),
                         weight_on_bit_N=float(wob), weight_on_bit_std=float(wob_std),
-                        bit_axial_speed_m_s=float(rop), stick_slip_severity=float(severity),
+                        bit_axial_speed_m_s=float(rop), bit_axial_speed_std=float(rop_std),
+                        stick_slip_severity=float(severity),
                         nis_torsional=float(nis_t), nis_axial=float(nis_a),
                         model_mismatch=self.model_mismatch)
 

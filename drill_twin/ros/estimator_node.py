@@ -7,11 +7,11 @@ bit, ``surface/hook_load`` [N] and ``surface/block_velocity`` [m/s].  A timer at
 ``rate_hz`` on the node clock (``/clock`` under ``use_sim_time``) samples the latest value
 of each (zero-order hold) and updates the filters.  Outputs: ``estimate/bit/velocity``
 (``TwistWithCovarianceStamped``: angular.x the bit speed with its variance at
-covariance[21], linear.x the bit's axial speed), ``estimate/bit/wrench`` (force.x weight
-on bit, torque.x torque on bit), ``estimate/bit/stuck`` (the bit at rest at some instant
-of the sample period that begins: the flag holds until the next sample),
-``estimate/stick_slip_severity``
-and ``/diagnostics`` (innovation statistics, the last self-tuning fit, the model-mismatch
+covariance[21], linear.x the bit's axial speed with its variance at covariance[0]),
+``estimate/bit/wrench`` (force.x weight on bit, torque.x torque on bit),
+``estimate/bit/stuck`` (the bit at rest at some instant of the sample period that
+begins: the flag holds until the next sample), ``estimate/stick_slip_severity`` and
+``/diagnostics`` (innovation statistics, the last self-tuning fit, the model-mismatch
 warning).
 
 Self-tuning (``self_tuning_period_s`` > 0) fits the string to the last
