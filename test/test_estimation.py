@@ -239,3 +239,50 @@ def test_running_range_equals_the_window_statistics():
         low, high, mean = rr.add(v)
         w = x[max(0, i - 36):i + 1]
         assert (low, high) == (w.min(), w.max()) and mean == pytest.approx(w.mean(), abs=1e-12)
+
+
+def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_rotary):
+    """A recording's sensor glitches — NaN, ±inf, 1e30 N·m, a speed of −1e9 rad/s, a
+    negative hook load — at 60 instants of a stick-slip run: the gate refuses them (each
+    counted; NaN reads as "not recorded"), the held values stand in, and the estimate is
+    as close to the twin's truth as from the clean recording."""
+    from drill_twin.estimation.offline import estimate_recording
+    samples = sensor_samples(slow_rotary, 100.0, DownholeEstimator(
+        slow_rotary.scenario, 100.0).noise)
+    series = {'time_s': slow_rotary.time_s[::10][:len(samples)]}
+    for key, name in (('speed', 'surface_speed_rad_s'), ('torque', 'surface_torque_Nm'),
+                      ('hook_load', 'hook_load_N'), ('block_velocity', 'block_velocity_m_s')):
+        series[key] = np.array([getattr(s, name) for s in samples])
+    clean = errors(slow_rotary, estimate_recording(dict(series), slow_rotary.scenario,
+                                                   tune_every_s=0.0), 150.0, 300.0)
+    rng = np.random.default_rng(3)
+    spots = rng.choice(np.arange(1000, len(samples)), size=60, replace=False).reshape(4, 15)
+    series['torque'][spots[0]] = np.where(np.arange(15) % 2, np.inf, 1e30)
+    series['torque'][spots[1]] = math.nan
+    series['speed'][spots[2]] = -1e9
+    series['hook_load'][spots[3]] = -1.0
+    est = estimate_recording(series, slow_rotary.scenario, tune_every_s=0.0)
+    assert est['rejected'] == {'surface_speed_rad_s': 15, 'surface_torque_Nm': 15,
+                               'hook_load_N': 15}
+    err = errors(slow_rotary, est, 150.0, 300.0)
+    assert err['stick_windows'] > 50
+    assert err['bit_speed_rms_rel'] <= 1.02 * clean['bit_speed_rms_rel'] <= 0.05
+    assert err['stick_f1'] >= clean['stick_f1'] - 0.01
+
+
+def test_surface_gate_holds_the_last_acceptable_value():
+    from drill_twin.estimation.surface_gate import SurfaceGate, SurfaceLimits
+    gate = SurfaceGate(SurfaceLimits(speed_rad_s=30.0))
+    assert gate.sample() is None                         # nothing to start from
+    assert gate.offer('surface_speed_rad_s', -2.0) is None     # backspin is possible
+    assert gate.offer('surface_torque_Nm', 3000.0) is None
+    for channel, value in (('surface_speed_rad_s', 31.0), ('surface_torque_Nm', -math.inf),
+                           ('hook_load_N', -1.0), ('block_velocity_m_s', 'fast'),
+                           ('surface_torque_Nm', True)):
+        assert gate.offer(channel, value) is not None
+    sample = gate.sample()
+    assert (sample.surface_speed_rad_s, sample.surface_torque_Nm) == (-2.0, 3000.0)
+    assert math.isnan(sample.hook_load_N) and math.isnan(sample.block_velocity_m_s)
+    assert gate.rejected_total == 5
+    with pytest.raises(ValueError):
+        SurfaceLimits(torque_Nm=math.nan)

@@ -1,5 +1,6 @@
 """``downhole_estimator`` over DDS beside ``twin_node``: fed only the twin's surface
 topics, its estimate of the bit follows the twin's own bit topics."""
+import math
 import time
 
 import numpy as np
@@ -9,6 +10,7 @@ rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import TwistStamped, TwistWithCovarianceStamped, WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 from drill_twin.ros.estimator_node import EstimatorNode  # noqa: E402
 from drill_twin.ros.twin_node import TwinNode  # noqa: E402
@@ -38,7 +40,8 @@ def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
     rig.listen('estimate/bit/wrench', WrenchStamped,
                _stamped(lambda m: (m.wrench.torque.x, m.wrench.force.x)))
     rig.listen('/diagnostics', DiagnosticArray, lambda m: [
-        (s.name, s.level, {kv.key: kv.value for kv in s.values}) for s in m.status])
+        (s.name, s.level, {kv.key: kv.value for kv in s.values}, s.message)
+        for s in m.status])
     assert rig.spin_until(lambda: len(rig.data['estimate/bit/velocity']) > 1000, 60)
     assert twin.twin.time_s > 8.0
     truth = np.array([(t, *v) for t, v in rig.data['bit/velocity']])
@@ -62,3 +65,30 @@ def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
     mine = [s for arr in rig.data['/diagnostics'] for s in arr
             if s[0] == 'drill_twin: downhole_estimator']
     assert mine and 'nis_torsional' in mine[-1][2]
+
+    # corrupt surface torque samples: refused (counted, diagnostics warn), the estimate
+    # goes on from the held value and still follows the truth
+    glitch = rig.publisher('surface/torque')
+    start = len(rig.data['estimate/bit/velocity'])
+    for value in (math.nan, math.inf, 1e30, -1e30):
+        glitch.publish(Float64(data=value))
+    assert rig.spin_until(lambda: _estimator_status(rig)[1] >= 4, 20)
+    level, refused, message = _estimator_status(rig)
+    assert refused == 4 and level == 1 and 'surface/torque' in message
+    assert rig.spin_until(lambda: len(rig.data['estimate/bit/velocity']) > start + 200, 20)
+    truth = np.array([(t, *v) for t, v in rig.data['bit/velocity']])
+    after = np.array([(t, *v) for t, v in rig.data['estimate/bit/velocity'][start:]])
+    assert np.all(np.isfinite(after[:, 1]))
+    nearest = np.interp(after[:, 0], truth[:, 0], truth[:, 1])
+    assert np.sqrt(np.mean((after[:, 1] - nearest) ** 2)) < 0.1 * mean_speed
+
+
+def _estimator_status(rig):
+    """(level, refused samples, message) of the estimator's last diagnostics."""
+    mine = [s for arr in rig.data['/diagnostics'] for s in arr
+            if s[0] == 'drill_twin: downhole_estimator']
+    if not mine:
+        return 0, 0, ''
+    _, level, values, message = mine[-1]
+    level = level[0] if isinstance(level, bytes) else level
+    return level, int(values.get('rejected_samples', 0)), message

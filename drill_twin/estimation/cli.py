@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from ..console import print_summary
@@ -37,6 +38,11 @@ def cmd_estimate(args) -> int:
     est = estimate_recording(series, scenario, tune_every_s=args.self_tuning_period)
     out = {'recording': str(args.target), 'samples': int(est['time_s'].size),
            'rate_hz': est['rate_hz']}
+    if est['rejected']:
+        out['refused_samples'] = est['rejected']
+        print(f'drill-twin: warning: refused corrupt surface samples {est["rejected"]} '
+              '(non-finite or beyond any rig; the last acceptable value was held)',
+              file=sys.stderr)
     errors = recording_errors(series, est)
     if errors is not None:
         out['errors'] = errors

@@ -12,14 +12,9 @@ import math
 import numpy as np
 
 from ..physics.parameters import ParameterError
-from .estimator import (
-    DownholeEstimator,
-    EstimatorTuning,
-    SensorNoise,
-    SurfaceSample,
-    estimate_series,
-)
+from .estimator import DownholeEstimator, EstimatorTuning, SensorNoise, estimate_series
 from .study import f1_score, stick_windows
+from .surface_gate import CHANNELS, SurfaceGate
 
 __all__ = ['recording_series', 'estimate_recording', 'recording_errors', 'plot_estimate']
 
@@ -78,16 +73,37 @@ def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = 
     tuning = tuning or EstimatorTuning()
     est = DownholeEstimator(scenario, min(max(rate, 1.0), 10000.0), noise or SensorNoise(),
                             tuning)
-    nan = np.full(series['time_s'].size, math.nan)
-    samples = [SurfaceSample(*v) for v in zip(series['speed'], series['torque'],
-                                              series.get('hook_load', nan),
-                                              series.get('block_velocity', nan))]
+    samples, gate = gated_samples(series)
+    if len(samples) < 2 or samples[0] is None:
+        raise ParameterError('the recording has no acceptable surface speed and torque '
+                             f'sample to start from (refused: {gate.rejected})')
     est.start(samples[0])
     result = estimate_series(est.run(samples[1:], tune_every_s))
     result['time_s'] = series['time_s'][1:]
     result['rate_hz'] = rate
     result['fits'] = [(series['time_s'][0] + t, fit) for t, fit in est.fits]
+    result['rejected'] = {k: v for k, v in gate.rejected.items() if v}
     return result
+
+
+def gated_samples(series: dict) -> tuple[list, SurfaceGate]:
+    """The series as samples through a :class:`SurfaceGate` (a refused or missing value
+    holds the channel's last acceptable one), from the first instant with an acceptable
+    speed and torque: the series is trimmed to it in place."""
+    gate = SurfaceGate()
+    nan = np.full(series['time_s'].size, math.nan)
+    columns = [series.get(key, nan) for key in ('speed', 'torque', 'hook_load',
+                                                 'block_velocity')]
+    samples = []
+    for row in zip(*columns):
+        for channel, value in zip(CHANNELS, row):
+            if not math.isnan(value):          # NaN: not recorded at this instant
+                gate.offer(channel, value)
+        samples.append(gate.sample())
+    first = next((i for i, s in enumerate(samples) if s is not None), len(samples))
+    for key in series:
+        series[key] = series[key][first:]
+    return samples[first:], gate
 
 
 def recording_errors(series: dict, est: dict, skip_s: float = 10.0) -> dict | None:

@@ -21,7 +21,6 @@ so the sampling timer keeps its rate; the result is taken on the executor's thre
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -30,7 +29,8 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
-from ..estimation.estimator import DownholeEstimator, EstimatorTuning, SensorNoise, SurfaceSample
+from ..estimation.estimator import DownholeEstimator, EstimatorTuning, SensorNoise
+from ..estimation.surface_gate import CHANNELS, SurfaceGate, SurfaceLimits
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from ..runtime.arbitration import Watchdog
@@ -41,6 +41,9 @@ from .entry import interruptible
 from .messages import message_class, qos_profile, to_message
 
 __all__ = ['EstimatorNode', 'main']
+
+#: diagnostics warn of refused samples for this long after the last one [s]
+_REJECTION_MEMORY_S = 10.0
 
 
 class EstimatorNode(Node):
@@ -61,10 +64,13 @@ class EstimatorNode(Node):
             tuning = dataclasses.replace(EstimatorTuning(), torque_rate_Nm=g('torque_rate_Nm'),
                                          tuning_window_s=g('tuning_window_s'))
             self.est = DownholeEstimator(scenario, g('rate_hz'), noise, tuning)
-        self.latest = dict.fromkeys(SURFACE_INPUTS)
+        self.gate = SurfaceGate(SurfaceLimits(
+            g('max_surface_speed_rad_s'), g('max_surface_torque_Nm'), g('max_hook_load_N'),
+            g('max_block_speed_m_s')))
+        self.last_rejection = None          # (monotonic time [s], reason)
         self.watch = Watchdog(g('measurement_timeout_s'))
-        for name in SURFACE_INPUTS:
-            self.create_subscription(Float64, name, self._on_input(name),
+        for name, channel in zip(SURFACE_INPUTS, CHANNELS):
+            self.create_subscription(Float64, name, self._on_input(name, channel),
                                      qos_profile_sensor_data)
         # (publisher, message class, topic) per estimate topic, built once
         self.pubs = [(self.create_publisher(message_class(t.type), t.name, qos_profile(t.qos)),
@@ -90,12 +96,15 @@ class EstimatorNode(Node):
         from ..estimation.tuning import first_mode
         return first_mode(self.est.active_model).frequency_hz
 
-    def _on_input(self, name):
+    def _on_input(self, name, channel):
         def callback(msg):
-            if math.isfinite(msg.data):        # non-finite samples are dropped
-                self.latest[name] = msg.data
-                if name == 'surface/torque':
-                    self.watch.feed(time.monotonic())
+            why = self.gate.offer(channel, msg.data)
+            if why is not None:             # refused: the last acceptable value is held
+                self.last_rejection = (time.monotonic(), f'{name}: {why}')
+                self.get_logger().warning(f'rejected {name} sample: {why}; holding the last '
+                                          'acceptable value', throttle_duration_sec=1.0)
+            elif channel == 'surface_torque_Nm':
+                self.watch.feed(time.monotonic())
         return callback
 
     # --- parameters: the descriptors validate, applied after ------------------------------
@@ -106,13 +115,9 @@ class EstimatorNode(Node):
 
     # --- sampling ---------------------------------------------------------------------------
     def _sample(self):
-        speed, torque = self.latest['surface/top_drive_speed'], self.latest['surface/torque']
-        if speed is None or torque is None or self.watch.expired(time.monotonic()) \
-                or self.watch.silent:
+        sample = self.gate.sample()
+        if sample is None or self.watch.expired(time.monotonic()) or self.watch.silent:
             return                      # nothing to estimate from (diagnostics say so)
-        sample = SurfaceSample(speed, torque,
-                               _nan(self.latest['surface/hook_load']),
-                               _nan(self.latest['surface/block_velocity']))
         self.estimate = self.est.update(sample)
         self.samples += 1
         stamp = self.get_clock().now().to_msg()
@@ -145,7 +150,8 @@ class EstimatorNode(Node):
 
     def _diagnostics(self):
         e = self.estimate
-        values = {'samples': self.samples, 'self_tuning_fits': self.fits}
+        values = {'samples': self.samples, 'self_tuning_fits': self.fits,
+                  'rejected_samples': self.gate.rejected_total}
         if e is not None:
             values.update(nis_torsional=f'{e.nis_torsional:.3g}',
                           nis_axial=f'{e.nis_axial:.3g}',
@@ -164,6 +170,9 @@ class EstimatorNode(Node):
             level, message = 1, ('surface torque stopped: estimates held' if
                                  self.watch.last_s is not None else
                                  'waiting for surface/top_drive_speed and surface/torque')
+        elif self.last_rejection is not None and \
+                time.monotonic() - self.last_rejection[0] < _REJECTION_MEMORY_S:
+            level, message = 1, f'rejecting corrupt surface samples ({self.last_rejection[1]})'
         elif self.est.model_mismatch:
             level, message = 1, ('model mismatch: the string model does not fit the surface '
                                  'data (see fitted_* values)')
@@ -176,10 +185,6 @@ class EstimatorNode(Node):
     def destroy_node(self):
         self._pool.shutdown(wait=False, cancel_futures=True)
         return super().destroy_node()
-
-
-def _nan(value):
-    return math.nan if value is None else value
 
 
 def _fit_summary(fit) -> str:

@@ -127,6 +127,14 @@ ESTIMATOR_SETTINGS = (
             600.0, read_only=True),
     Setting('self_tuning_apply', True, 'continue on the fitted string (false: only report '
             'the fit and the mismatch warning)'),
+    Setting('max_surface_speed_rad_s', 40.0, 'top-drive speed samples beyond this either way '
+            'are refused as corrupt', 'rad/s', 1e-3, 1e4, read_only=True),
+    Setting('max_surface_torque_Nm', 2.0e5, 'surface torque samples beyond this either way '
+            'are refused as corrupt', 'N m', 1e-3, 1e9, read_only=True),
+    Setting('max_hook_load_N', 2.0e7, 'hook-load samples below 0 or above this are refused '
+            'as corrupt', 'N', 1e-3, 1e10, read_only=True),
+    Setting('max_block_speed_m_s', 10.0, 'block velocity samples beyond this either way are '
+            'refused as corrupt', 'm/s', 1e-6, 1e3, read_only=True),
 )
 
 
