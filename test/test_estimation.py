@@ -271,7 +271,9 @@ def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_r
 
 
 def test_surface_gate_holds_the_last_acceptable_value():
+    from drill_twin.estimation.estimator import SurfaceSample
     from drill_twin.estimation.surface_gate import SurfaceGate, SurfaceLimits
+    from drill_twin.physics.scenario import load_scenario
     gate = SurfaceGate(SurfaceLimits(speed_rad_s=30.0))
     assert gate.sample() is None                         # nothing to start from
     assert gate.offer('surface_speed_rad_s', -2.0) is None     # backspin is possible
@@ -286,3 +288,7 @@ def test_surface_gate_holds_the_last_acceptable_value():
     assert gate.rejected_total == 5
     with pytest.raises(ValueError):
         SurfaceLimits(torque_Nm=math.nan)
+    est = DownholeEstimator(load_scenario('benchmark_fem'), 100.0)   # the library refuses too
+    with pytest.raises(ValueError):
+        est.update(SurfaceSample(12.0, math.inf))
+    assert not est.started

@@ -241,7 +241,18 @@ class DownholeEstimator:
 
     # --- one sample ---------------------------------------------------------------------
     def update(self, sample: SurfaceSample) -> Estimate:
-        """Fold in one sample (taken one period after the previous one)."""
+        """Fold in one sample (taken one period after the previous one).
+
+        Raises
+        ------
+        ValueError
+            If the top-drive speed or the surface torque is not finite: a corrupt sample
+            would stay in the filter's state (:class:`~.surface_gate.SurfaceGate` holds the
+            last acceptable value instead).
+        """
+        if not (math.isfinite(sample.surface_speed_rad_s)
+                and math.isfinite(sample.surface_torque_Nm)):
+            raise ValueError(f'surface speed and torque must be finite, got {sample}')
         if not self.started:
             self.start(sample)
         self.time_s += 1.0 / self.rate_hz
