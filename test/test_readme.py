@@ -32,7 +32,7 @@ NOT_HERE = {
     'source venv/bin/activate && pip install': 'the Ubuntu system Python with ROS from apt',
     'ros2 launch ': 'needs ros2launch and launch_ros (not on PyPI); tried by hand against a '
                     'colcon build of ros2/launch_ros jazzy',
-    'drill-twin estimate study': 'the table of docs/estimation.md, ~15 min (its errors are '
+    'drill-twin estimate study': 'the table of docs/estimation.md, ~20 min (its errors are '
                                  'asserted by test_estimation.py)',
     'downhole_estimator ': 'run over DDS against twin_node by test_estimator_node.py',
     'drill-twin control compare': 'the figure and table of docs/control.md, ~5 min (the '
