@@ -292,3 +292,51 @@ def test_surface_gate_holds_the_last_acceptable_value():
     with pytest.raises(ValueError):
         est.update(SurfaceSample(12.0, math.inf))
     assert not est.started
+
+
+def test_samples_not_taken_are_predicted_through(slow_rotary):
+    """A sampler that falls behind its clock (30 % of the periods without a sample):
+    predicting over the missed periods keeps the estimate close to the twin's truth;
+    taking each late sample as the next one (the filter's period then wrong) does not."""
+    samples = sensor_samples(slow_rotary, 100.0, DownholeEstimator(
+        slow_rotary.scenario, 100.0).noise)
+    taken = np.random.default_rng(5).random(len(samples)) > 0.3
+
+    def rms(skip_missed, keep):
+        est = DownholeEstimator(slow_rotary.scenario, 100.0)
+        est.start(samples[0])
+        speed, index, gap = [], [], 0
+        for i in range(1, len(samples)):
+            if not keep[i]:
+                gap += 1
+                continue
+            est.skip(gap if skip_missed else 0)
+            gap = 0
+            speed.append(est.update(samples[i]).bit_speed_rad_s)
+            index.append(i * 10)                   # the truth's 1 kHz sample
+        speed, index = np.array(speed), np.array(index)
+        late = index >= 150_000
+        true = slow_rotary.bit_speed_rad_s[index[late]]
+        return np.sqrt(np.mean((speed[late] - true) ** 2)) / true.mean()
+
+    every = rms(True, np.ones_like(taken))
+    assert every <= 0.05
+    assert rms(True, taken) <= 1.3 * every
+    assert rms(False, taken) > 5 * every
+
+
+def test_sample_pacing_counts_the_periods_the_clock_advanced():
+    from drill_twin.runtime.pacing import SamplePacing
+    p = SamplePacing(100.0, memory_s=10.0)
+    ms = 1_000_000
+    assert p.periods(0, 0.0) == 1                    # the first sample
+    assert p.periods(10 * ms + 4 * ms, 0.0) == 1     # 4 ms of timer jitter: no skip
+    assert p.periods(24 * ms, 0.0) == 1
+    assert p.periods(26 * ms, 0.0) == 0              # less than half a period: no sample
+    assert not p.recently_behind(0.0)
+    assert p.periods(54 * ms, 1.0) == 3 and p.skipped == 2
+    assert p.recently_behind(5.0) and not p.recently_behind(11.5)
+    assert p.periods(0, 2.0) == 0                    # the clock went back: start again
+    assert p.periods(10 * ms, 2.0) == 1
+    p.restart()
+    assert p.periods(500 * ms, 3.0) == 1 and p.skipped == 2

@@ -213,6 +213,7 @@ class DownholeEstimator:
         window = max(1, round(tuning.monitor_window_s * rate_hz))
         self._nis = {'torsional': _Monitor(window), 'axial': _Monitor(window)}
         self._speeds = _RunningRange(max(1, round(tuning.severity_window_s * rate_hz)))
+        self._on_bottom = True
         self.time_s = 0.0
         self.started = False
 
@@ -274,6 +275,7 @@ class DownholeEstimator:
             rop, rop_std = ax.x[ax.bit_velocity], ax.std(ax.bit_velocity)
         z = self.tuning.stuck_z
         on_bottom = not (wob <= z * wob_std)   # weight on bit evidently > 0, or unknown
+        self._on_bottom = on_bottom
         if on_bottom:                          # the bit does not turn backwards
             tors.clamp_below(tors.bit_velocity, 0.0)
         speed = float(tors.x[tors.bit_velocity])
@@ -291,6 +293,23 @@ class DownholeEstimator:
                         stick_slip_severity=float(severity),
                         nis_torsional=float(nis_t), nis_axial=float(nis_a),
                         model_mismatch=self.model_mismatch)
+
+    def skip(self, periods: int = 1):
+        """Advance ``periods`` sample periods without a measurement (samples that were not
+        taken: a sampler that fell behind its clock).  The filters predict with the inputs
+        held; the posterior covariance stays the steady one (a lower bound over the gap);
+        the self-tuning window takes the held values, the severity the predicted speed."""
+        tors = self.torsion
+        for _ in range(max(0, int(periods))):
+            self.time_s += 1.0 / self.rate_hz
+            tors.predict()
+            if self.axial is not None:
+                self.axial.predict()
+            if self._on_bottom:
+                tors.clamp_below(tors.bit_velocity, 0.0)
+            self._history[0].append(self._history[0][-1] if self._history[0] else 0.0)
+            self._history[1].append(self._history[1][-1] if self._history[1] else 0.0)
+            self._speeds.add(float(tors.x[tors.bit_velocity]))
 
     def run(self, samples, tune_every_s: float | None = None,
             retune: bool = True) -> list[Estimate]:

@@ -34,6 +34,7 @@ from ..estimation.surface_gate import CHANNELS, SurfaceGate, SurfaceLimits
 from ..physics.parameters import ParameterError
 from ..physics.scenario import load_scenario
 from ..runtime.arbitration import Watchdog
+from ..runtime.pacing import SamplePacing
 from ..runtime.settings import ESTIMATOR_SETTINGS
 from ..topics import ESTIMATE_TOPICS, SURFACE_INPUTS, diagnostics_fields, stamp_fields
 from .common import declare_settings, run_node, warn_unknown_overrides
@@ -78,6 +79,7 @@ class EstimatorNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.estimate = None
         self.samples = 0
+        self.pacing = SamplePacing(g('rate_hz'))
         self.fits = 0
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix='self_tuning')
         self._fit_future = None
@@ -117,7 +119,13 @@ class EstimatorNode(Node):
     def _sample(self):
         sample = self.gate.sample()
         if sample is None or self.watch.expired(time.monotonic()) or self.watch.silent:
+            self.pacing.restart()
             return                      # nothing to estimate from (diagnostics say so)
+        periods = self.pacing.periods(self.get_clock().now().nanoseconds, time.monotonic())
+        if periods == 0:
+            return                      # the clock did not advance a period (or went back)
+        if self.est.started:
+            self.est.skip(periods - 1)  # the periods whose samples were not taken
         self.estimate = self.est.update(sample)
         self.samples += 1
         stamp = self.get_clock().now().to_msg()
@@ -151,7 +159,8 @@ class EstimatorNode(Node):
     def _diagnostics(self):
         e = self.estimate
         values = {'samples': self.samples, 'self_tuning_fits': self.fits,
-                  'rejected_samples': self.gate.rejected_total}
+                  'rejected_samples': self.gate.rejected_total,
+                  'skipped_periods': self.pacing.skipped}
         if e is not None:
             values.update(nis_torsional=f'{e.nis_torsional:.3g}',
                           nis_axial=f'{e.nis_axial:.3g}',
@@ -170,6 +179,9 @@ class EstimatorNode(Node):
             level, message = 1, ('surface torque stopped: estimates held' if
                                  self.watch.last_s is not None else
                                  'waiting for surface/top_drive_speed and surface/torque')
+        elif self.pacing.recently_behind(time.monotonic()):
+            level, message = 1, ('falling behind the clock: sample periods predicted without '
+                                 'a measurement (see skipped_periods)')
         elif self.last_rejection is not None and \
                 time.monotonic() - self.last_rejection[0] < _REJECTION_MEMORY_S:
             level, message = 1, f'rejecting corrupt surface samples ({self.last_rejection[1]})'

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ['Pacer', 'TickPlan']
+__all__ = ['Pacer', 'TickPlan', 'SamplePacing']
 
 
 @dataclass(frozen=True)
@@ -141,3 +141,56 @@ class Pacer:
         if behind_s > half_step or sim_s - plan.start_s > self.sample_s + half_step:
             return 'overrun'
         return None
+
+
+class SamplePacing:
+    """How many sample periods of the sampler's clock passed since its last sample.
+
+    A sampler (the downhole estimator) updates a filter whose model takes one sample
+    period between updates.  Its timer runs on the node clock — wall time, or the
+    simulated ``/clock`` under ``use_sim_time`` — and can fall behind it: a late
+    callback, or a simulated clock running faster than the node can follow.  The filter
+    must then predict over the periods that had no sample, not take the late sample as
+    the next one.  :meth:`periods` rounds the clock's advance to whole periods (timer
+    jitter of less than half a period is no skip).
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sample rate [Hz] of the filter.
+    memory_s : float
+        How long [s of wall time] :meth:`recently_behind` remembers a skip.
+    """
+
+    def __init__(self, rate_hz: float, memory_s: float = 10.0):
+        self.period_ns = 1e9 / float(rate_hz)
+        self.memory_s = float(memory_s)
+        self.last_ns: int | None = None
+        self.skipped = 0
+        self._last_skip_s: float | None = None
+
+    def restart(self):
+        """Forget the last sample (the data stopped: the next one starts afresh)."""
+        self.last_ns = None
+
+    def periods(self, now_ns: int, wall_s: float) -> int:
+        """Whole periods since the last sample at ``now_ns`` (1 for the first sample; 0
+        if the clock advanced less than half a period or went back — no sample then).
+        ``wall_s``: the monotonic time [s], for :meth:`recently_behind`."""
+        if self.last_ns is None:
+            self.last_ns = now_ns
+            return 1
+        n = round((now_ns - self.last_ns) / self.period_ns)
+        if n <= 0:
+            if now_ns < self.last_ns:       # the clock went back (a new simulation)
+                self.last_ns = now_ns
+            return 0
+        self.last_ns = now_ns
+        if n > 1:
+            self.skipped += n - 1
+            self._last_skip_s = wall_s
+        return n
+
+    def recently_behind(self, wall_s: float) -> bool:
+        """A period was skipped within the last ``memory_s`` of wall time."""
+        return self._last_skip_s is not None and wall_s - self._last_skip_s < self.memory_s
