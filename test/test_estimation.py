@@ -340,3 +340,17 @@ def test_sample_pacing_counts_the_periods_the_clock_advanced():
     assert p.periods(10 * ms, 2.0) == 1
     p.restart()
     assert p.periods(500 * ms, 3.0) == 1 and p.skipped == 2
+
+
+def test_innovations_far_beyond_their_size_report_a_mismatch(benchmark_stick_slip):
+    """Without self-tuning the fit cannot say that the model is wrong; the innovations
+    can: a pipe 10 % too stiff (bit-speed error ~50 %) is flagged throughout developed
+    stick-slip, the exact model never (100 and 10 Hz).  (Before stick-slip the surface
+    torque hardly varies: no evidence either way.)"""
+    base = torsional_axis(benchmark_stick_slip.scenario)
+    for rate in (100.0, 10.0):
+        exact = estimate_run(benchmark_stick_slip, rate)
+        assert not exact['model_mismatch'].any()
+        wrong = estimate_run(benchmark_stick_slip, rate,
+                             torsional=base.scaled(pipe_stiffness=1.1))
+        assert wrong['model_mismatch'][wrong['time_s'] >= 800.0].all()

@@ -188,6 +188,10 @@ class EstimatorNode(Node):
         elif self.est.model_mismatch:
             level, message = 1, ('model mismatch: the string model does not fit the surface '
                                  'data (see fitted_* values)')
+        elif self.est.innovation_alarm:
+            level, message = 1, ('model mismatch: the surface torque is far from what the '
+                                 'string model predicts (nis_torsional; is the string, the '
+                                 'sensor noise or the time base what is configured?)')
         else:
             level, message = 0, 'estimating'
         stamp = stamp_fields(ns=self.get_clock().now().nanoseconds)
