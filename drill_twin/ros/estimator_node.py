@@ -45,6 +45,9 @@ __all__ = ['EstimatorNode', 'main']
 
 #: diagnostics warn of refused samples for this long after the last one [s]
 _REJECTION_MEMORY_S = 10.0
+#: longest gap [s] the filter is predicted over sample by sample (after a longer one the
+#: prediction adds nothing but time)
+_MAX_SKIP_S = 10.0
 
 
 class EstimatorNode(Node):
@@ -124,8 +127,8 @@ class EstimatorNode(Node):
         periods = self.pacing.periods(self.get_clock().now().nanoseconds, time.monotonic())
         if periods == 0:
             return                      # the clock did not advance a period (or went back)
-        if self.est.started:
-            self.est.skip(periods - 1)  # the periods whose samples were not taken
+        if self.est.started:            # the periods whose samples were not taken
+            self.est.skip(min(periods - 1, round(_MAX_SKIP_S * self.est.rate_hz)))
         self.estimate = self.est.update(sample)
         self.samples += 1
         stamp = self.get_clock().now().to_msg()
