@@ -320,8 +320,9 @@ class DownholeEstimator:
                 self.axial.predict()
             if self._on_bottom:
                 tors.clamp_below(tors.bit_velocity, 0.0)
-            self._history[0].append(self._history[0][-1] if self._history[0] else 0.0)
-            self._history[1].append(self._history[1][-1] if self._history[1] else 0.0)
+            if self._history[0]:
+                for kept in self._history:
+                    kept.append(kept[-1])
             self._speeds.add(float(tors.x[tors.bit_velocity]))
 
     def run(self, samples, tune_every_s: float | None = None,

@@ -74,7 +74,7 @@ def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = 
     est = DownholeEstimator(scenario, min(max(rate, 1.0), 10000.0), noise or SensorNoise(),
                             tuning)
     samples, gate = gated_samples(series)
-    if len(samples) < 2 or samples[0] is None:
+    if len(samples) < 2:
         raise ParameterError('the recording has no acceptable surface speed and torque '
                              f'sample to start from (refused: {gate.rejected})')
     est.start(samples[0])
@@ -92,8 +92,7 @@ def gated_samples(series: dict) -> tuple[list, SurfaceGate]:
     speed and torque: the series is trimmed to it in place."""
     gate = SurfaceGate()
     nan = np.full(series['time_s'].size, math.nan)
-    columns = [series.get(key, nan) for key in ('speed', 'torque', 'hook_load',
-                                                 'block_velocity')]
+    columns = [series.get(key, nan) for key in _SURFACE]      # in the order of CHANNELS
     samples = []
     for row in zip(*columns):
         for channel, value in zip(CHANNELS, row):

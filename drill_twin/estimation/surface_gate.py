@@ -17,14 +17,14 @@ not explain it the innovation statistics and the mismatch warning say so.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from .estimator import SurfaceSample
 
 __all__ = ['SurfaceLimits', 'SurfaceGate', 'CHANNELS']
 
-#: the measured channels, as fields of :class:`SurfaceSample`
-CHANNELS = ('surface_speed_rad_s', 'surface_torque_Nm', 'hook_load_N', 'block_velocity_m_s')
+#: the measured channels: the fields of :class:`SurfaceSample`
+CHANNELS = tuple(f.name for f in fields(SurfaceSample))
 
 
 @dataclass(frozen=True)
@@ -64,9 +64,12 @@ class SurfaceGate:
     latest: dict = field(default_factory=lambda: dict.fromkeys(CHANNELS))
     rejected: dict = field(default_factory=lambda: dict.fromkeys(CHANNELS, 0))
 
+    def __post_init__(self):
+        self._ranges = self.limits.ranges()      # the limits are frozen
+
     def reason(self, channel: str, value) -> str | None:
         """Why ``value`` cannot be a measurement of ``channel`` (None if it can)."""
-        low, high, unit = self.limits.ranges()[channel]
+        low, high, unit = self._ranges[channel]
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return f'{channel} {value!r} is not a number'
         if not math.isfinite(value):
