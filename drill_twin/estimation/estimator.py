@@ -11,6 +11,10 @@ parameters:
   is projected on ω_bit ≥ 0 with the filter's covariance ("on bottom": the weight on bit
   is above ``stuck_z`` standard deviations of its estimate, or is not measured; off
   bottom the bit turns freely and is never stuck);
+* **uncertainty consistent with the innovations**: each filter's standard deviations
+  are scaled by √(mean ν²/S over ``monitor_window_s``), never below 1 — the filter's
+  own ones assume a bit torque that moves as a slow random walk, and during stick-slip
+  its innovations are 4-18 times their predicted variance (docs §3);
 * **stuck**: the bit is at rest at some instant of the sample period that begins now
   (a sampled flag stands for its period, as a published value holds until the next):
   its speed, estimated now or predicted over the period, is indistinguishable from zero
@@ -74,7 +78,8 @@ class EstimatorTuning:
     ``wob_rate_N``: of the weight on bit [N/√s]; ``stuck_z``: the stuck test's number of
     standard deviations; ``stuck_resolution_s``: the spacing [s] at which the predicted
     bit speed is tested over each sample period (the stick phases of the twin's runs last
-    from 1 ms to 0.15 s); ``severity_window_s``, ``monitor_window_s`` [s];
+    from 1 ms to 0.15 s); ``severity_window_s`` [s]; ``monitor_window_s`` [s]: the
+    window of the innovation statistics (and of the standard deviations' scale);
     ``tuning_window_s``: surface data kept for self-tuning [s];
     ``tuning_torque_rate_Nm``: the bit-torque random walk of the fit's filters (fast, so
     that the stick-slip torque jumps do not bias the string parameters, §5);
@@ -148,7 +153,19 @@ class _Monitor:
         self.total += nis
         if len(self.values) > self.size:
             self.total -= self.values.popleft()
-        return self.total / len(self.values)
+        return self.mean
+
+    @property
+    def mean(self) -> float:
+        """The window's mean (NaN before the first value)."""
+        return self.total / len(self.values) if self.values else math.nan
+
+    @property
+    def std_scale(self) -> float:
+        """√(mean ν²/S), at least 1: what the filter's standard deviations are
+        multiplied by for them to agree with the innovations (docs §3)."""
+        mean = self.mean
+        return math.sqrt(mean) if mean > 1.0 else 1.0
 
 
 class _RunningRange:
@@ -284,23 +301,25 @@ class DownholeEstimator:
                 nis_a = self._nis['axial'].add(nu_a * nu_a / ax.innovation_var)
             else:
                 ax.predict()
-            wob, wob_std = ax.x[ax.bit_force], ax.std(ax.bit_force)
-            rop, rop_std = ax.x[ax.bit_velocity], ax.std(ax.bit_velocity)
+            scale = self._nis['axial'].std_scale
+            wob, wob_std = ax.x[ax.bit_force], scale * ax.std(ax.bit_force)
+            rop, rop_std = ax.x[ax.bit_velocity], scale * ax.std(ax.bit_velocity)
         z = self.tuning.stuck_z
         on_bottom = not (wob <= z * wob_std)   # weight on bit evidently > 0, or unknown
         self._on_bottom = on_bottom
         if on_bottom:                          # the bit does not turn backwards
             tors.clamp_below(tors.bit_velocity, 0.0)
         speed = float(tors.x[tors.bit_velocity])
-        speed_std = tors.std(tors.bit_velocity)
+        scale = self._nis['torsional'].std_scale
+        speed_std = scale * tors.std(tors.bit_velocity)
         stuck = on_bottom and (speed < z * speed_std or self._speed_ahead.lowest(
-            tors.x, sample.surface_speed_rad_s, z) < 0.0)
+            tors.x, sample.surface_speed_rad_s, z * scale) < 0.0)
         low, high, mean = self._speeds.add(speed)
         severity = (high - low) / (2 * mean) if mean > 0 else 0.0
         return Estimate(time_s=self.time_s, bit_speed_rad_s=speed, bit_speed_std=speed_std,
                         stuck=stuck,
                         torque_on_bit_Nm=float(tors.x[tors.bit_force]),
-                        torque_on_bit_std=tors.std(tors.bit_force),
+                        torque_on_bit_std=scale * tors.std(tors.bit_force),
                         weight_on_bit_N=float(wob), weight_on_bit_std=float(wob_std),
                         bit_axial_speed_m_s=float(rop), bit_axial_speed_std=float(rop_std),
                         stick_slip_severity=float(severity),
