@@ -292,25 +292,14 @@ class DownholeEstimator:
         nis_t = self._nis['torsional'].add(nu * nu / tors.innovation_var)
         self.innovation_alarm = (self._nis['torsional'].full
                                  and nis_t > self.tuning.innovation_alarm)
-        nis_a = math.nan
-        wob, wob_std, rop, rop_std = math.nan, math.nan, math.nan, math.nan
-        ax = self.axial
-        if ax is not None:
-            if math.isfinite(sample.hook_load_N) and math.isfinite(sample.block_velocity_m_s):
-                nu_a = ax.update(-sample.hook_load_N, sample.block_velocity_m_s)
-                nis_a = self._nis['axial'].add(nu_a * nu_a / ax.innovation_var)
-            else:
-                ax.predict()
-            scale = self._nis['axial'].std_scale
-            wob, wob_std = ax.x[ax.bit_force], scale * ax.std(ax.bit_force)
-            rop, rop_std = ax.x[ax.bit_velocity], scale * ax.std(ax.bit_velocity)
+        wob, wob_std, rop, rop_std, nis_a = self._update_axial(sample)
         z = self.tuning.stuck_z
         on_bottom = not (wob <= z * wob_std)   # weight on bit evidently > 0, or unknown
         self._on_bottom = on_bottom
         if on_bottom:                          # the bit does not turn backwards
             tors.clamp_below(tors.bit_velocity, 0.0)
         speed = float(tors.x[tors.bit_velocity])
-        scale = self._nis['torsional'].std_scale
+        scale = self._nis['torsional'].std_scale      # the innovations' consistency (§3)
         speed_std = scale * tors.std(tors.bit_velocity)
         stuck = on_bottom and (speed < z * speed_std or self._speed_ahead.lowest(
             tors.x, sample.surface_speed_rad_s, z * scale) < 0.0)
@@ -325,6 +314,23 @@ class DownholeEstimator:
                         stick_slip_severity=float(severity),
                         nis_torsional=float(nis_t), nis_axial=float(nis_a),
                         model_mismatch=self.model_mismatch or self.innovation_alarm)
+
+    def _update_axial(self, sample: SurfaceSample) -> tuple[float, ...]:
+        """Weight on bit [N], its std, the bit's axial speed [m/s], its std (scaled by the
+        axial innovations' consistency, §3) and the windowed axial NIS — NaN without an
+        axial filter; predicted only when the sample lacks hook load or block velocity."""
+        ax = self.axial
+        if ax is None:
+            return (math.nan,) * 5
+        nis = math.nan
+        if math.isfinite(sample.hook_load_N) and math.isfinite(sample.block_velocity_m_s):
+            nu = ax.update(-sample.hook_load_N, sample.block_velocity_m_s)
+            nis = self._nis['axial'].add(nu * nu / ax.innovation_var)
+        else:
+            ax.predict()
+        scale = self._nis['axial'].std_scale
+        return (float(ax.x[ax.bit_force]), scale * ax.std(ax.bit_force),
+                float(ax.x[ax.bit_velocity]), scale * ax.std(ax.bit_velocity), nis)
 
     def skip(self, periods: int = 1):
         """Advance ``periods`` sample periods without a measurement (samples that were not
