@@ -34,7 +34,7 @@ from .estimator import (
 )
 
 __all__ = ['TRUTH_RATE_HZ', 'Truth', 'truth_run', 'sensor_samples', 'estimate_run', 'errors',
-           'stick_windows', 'f1_score']
+           'estimate_window', 'stick_windows', 'f1_score']
 
 DEFAULT_NOISE = SensorNoise()
 DEFAULT_TUNING = EstimatorTuning()
@@ -145,12 +145,19 @@ def _severity(speeds: np.ndarray, window: int) -> np.ndarray:
     return np.where(mean > 0, (view.max(axis=1) - view.min(axis=1)) / (2 * mean), 0.0)
 
 
-def errors(truth: Truth, est: dict, start_s: float, end_s: float) -> dict:
-    """Errors of the estimates against the truth over ``[start_s, end_s)``."""
-    k = _every(est['rate_hz'])
+def estimate_window(est: dict, start_s: float, end_s: float):
+    """The estimates of ``[start_s, end_s)``: their mask ``sel``, their sample numbers
+    ``idx`` and the truth's samples per estimate ``k`` — estimate ``i`` (taken after the
+    first sample) is truth sample ``(i + 1)·k``, so ``truth[idx * k]`` pairs with
+    ``est[sel]``."""
     t = est['time_s']
     sel = (t >= start_s) & (t < end_s)
-    idx = np.nonzero(sel)[0] + 1                  # estimate i is truth sample (i+1)·k
+    return sel, np.nonzero(sel)[0] + 1, _every(est['rate_hz'])
+
+
+def errors(truth: Truth, est: dict, start_s: float, end_s: float) -> dict:
+    """Errors of the estimates against the truth over ``[start_s, end_s)``."""
+    sel, idx, k = estimate_window(est, start_s, end_s)
     true_speed = truth.bit_speed_rad_s[idx * k]
     speed_err = est['bit_speed_rad_s'][sel] - true_speed
     out = {'bit_speed_rms_rel': float(np.sqrt(np.mean(speed_err ** 2)) / true_speed.mean()),
