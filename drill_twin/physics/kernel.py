@@ -234,9 +234,10 @@ def _pack_arrow(chain, out):
 def accelerations(ch, q, qd, f_top, f_bit, out):
     """The chain's accelerations ``out = M⁻¹ (e_top f_top + e_bit f_bit − C q̇ − K q)``:
     every external force on a chain acts on its top DOF (drives, hook load) or its bit DOF
-    (the interface law).  A single mass: a few multiply-adds; tridiagonal chains: the
-    Thomas recurrences with the precomputed factors; arrow chains:
-    :func:`_accelerations_arrow`."""
+    (the interface law).  A single mass (RGD): a few multiply-adds, inlined where they are
+    used; a longer chain: :func:`_accelerations_chain`, compiled once and called (its O(n)
+    loops outweigh a call, and inlining them at each of the four call sites of the
+    right-hand side multiplied the kernel's compile time)."""
     n = q.size
     if n == 0:
         return
@@ -244,6 +245,14 @@ def accelerations(ch, q, qd, f_top, f_bit, out):
         out[0] = ((-(ch[CH_C + 1, 0] * qd[0] + ch[CH_K + 1, 0] * q[0]) + f_top) + f_bit) \
             * ch[CH_INV, 0]
         return
+    _accelerations_chain(ch, q, qd, f_top, f_bit, out)
+
+
+@kernel_jit
+def _accelerations_chain(ch, q, qd, f_top, f_bit, out):
+    """:func:`accelerations` of a chain of n >= 2 DOFs: the Thomas recurrences with the
+    precomputed factors of a tridiagonal chain, or :func:`_accelerations_arrow`."""
+    n = q.size
     if ch[CH_FORM, 0] == FORM_ARROW:
         _accelerations_arrow(ch, q, qd, f_top, f_bit, out)
         return
@@ -545,9 +554,17 @@ def _torsional(tau, x, mode, law, top, inp, T, th, thm, cut, w_f, om_p, om_p_dot
 
 @kernel_jit
 def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work, g):
-    """Evaluate the right-hand side (for the reactions) and the switching functions."""
+    """Evaluate the right-hand side (for the reactions) and the switching functions (at an
+    interpolated state, while an event is located)."""
+    rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, work)
+    return _switching(tau, x, mode, law, top, A, T, work, g)
+
+
+@kernel_jit
+def _switching(tau, x, mode, law, top, A, T, work, g):
+    """The switching functions of the state ``x`` whose right-hand side was just evaluated
+    (its aux values are in the work array); returns the smallest."""
     w = _views(work)
-    _rhs(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, w)
     na = A.shape[1]
     nt = T.shape[1]
     ub, vb, phb, omb = bit_totals(tau, x, top, na, nt)
@@ -563,19 +580,27 @@ def _switching_at(tau, x, mode, law, top, inp, A, T, surf, geom, th, thm, dx, wo
 def _rk4(tau, x, h, k1, mode, law, top, inp, A, T, surf, geom, th, thm, out, work):
     """One classical RK4 step of size ``h`` from (tau, x) with ``k1 = f(tau, x)``: stages
     k2, k3, k4 at (tau + h/2, x + h/2 k1), (tau + h/2, x + h/2 k2), (tau + h, x + h k3),
-    through one call site of the inlined right-hand side."""
+    the step's end ``out``, and f at the end into ``w.k4`` (with the aux values there: what
+    the switching functions and the next step need) — four evaluations through one call
+    site of the inlined right-hand side, the only one in the stepping path."""
     w = _views(work)
     n = x.size
     tmp = w.tmp
     stages = (k1, w.k2, w.k3, w.k4)
-    for stage in range(1, 4):
-        c = 1.0 if stage == 3 else 0.5
-        previous = stages[stage - 1]
-        for i in range(n):
-            tmp[i] = x[i] + c * h * previous[i]
-        _rhs(tau + c * h, tmp, mode, law, top, inp, A, T, surf, geom, th, thm, stages[stage], w)
-    for i in range(n):
-        out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * w.k2[i] + 2.0 * w.k3[i] + w.k4[i])
+    for stage in range(1, 5):
+        point = tmp
+        if stage < 4:
+            c = 1.0 if stage == 3 else 0.5
+            previous = stages[stage - 1]
+            for i in range(n):
+                tmp[i] = x[i] + c * h * previous[i]
+        else:
+            c = 1.0
+            for i in range(n):
+                out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * w.k2[i] + 2.0 * w.k3[i] + w.k4[i])
+            point = out
+        _rhs(tau + c * h, point, mode, law, top, inp, A, T, surf, geom, th, thm,
+             stages[min(stage, 3)], w)
 
 
 @kernel_jit
@@ -766,8 +791,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
     for sub in range(20):
         _rk4(tau, x, remaining, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm,
              w.x_end, work)
-        gmin = _switching_at(tau + remaining, w.x_end, mode, law, top, inp, A, T, surf, geom,
-                             th, thm, w.k4, work, w.g)
+        gmin = _switching(tau + remaining, w.x_end, mode, law, top, A, T, work, w.g)
         if gmin >= 0.0 or sub == 19:
             _commit(tau, x, w.k1, tau + remaining, w.x_end, w.k4, law, top, T, surf, geom, th,
                     thm, counters, na, nt, start, work)
@@ -784,8 +808,7 @@ def _step(tau, x, h, mode, law, top, inp, A, T, surf, geom, th, thm, counters, t
                     geom, th, thm, work)
         dt = s * remaining
         _rk4(tau, x, dt, w.k1, mode, law, top, inp, A, T, surf, geom, th, thm, w.x_end, work)
-        _switching_at(tau + dt, w.x_end, mode, law, top, inp, A, T, surf, geom, th, thm,
-                      w.k4, work, w.g)
+        _switching(tau + dt, w.x_end, mode, law, top, A, T, work, w.g)
         _commit(tau, x, w.k1, tau + dt, w.x_end, w.k4, law, top, T, surf, geom, th, thm,
                 counters, na, nt, start, work)
         for i in range(n):
