@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .console import Progress, print_summary
+from .console import Progress, kernels_ready, print_summary
 from .control.cli import add_parsers as add_control_parsers
 from .estimation.cli import add_parsers as add_estimation_parsers
 from .io.mcap_reader import RecordingError
@@ -96,6 +96,7 @@ def cmd_simulate(args) -> int:
                              f'{"s" if scenario.is_si else "t*"})')
     if not (math.isfinite(args.rate_hz) and 0 < args.rate_hz <= 10000):
         raise ParameterError(f'--rate-hz {args.rate_hz:g}: must be in (0, 10000] Hz')
+    kernels_ready()
     progress = Progress('simulating', sys.stderr.isatty() and not args.summary_json)
     if args.out and args.out.endswith('.mcap'):
         return _simulate_to_mcap(args, scenario, duration, progress)
@@ -204,7 +205,8 @@ def cmd_stability(args) -> int:
         out = Path(args.out or 'variable_pitch.png')
         out.parent.mkdir(parents=True, exist_ok=True)
         n = (30, 20) if args.quick else (120, 80)
-        results = variable_pitch_charts(n=n, workers=args.workers)
+        results = variable_pitch_charts(n=n, workers=args.workers, progress=Progress(
+            'variable pitch', sys.stderr.isatty()))
         plot_variable_pitch(results, out)
         numbers = {f'{d:g} deg': {k: v for k, v in r.items() if k != 'chart'}
                    for d, r in results.items()}
@@ -280,7 +282,8 @@ def _chart(args, scenario: Scenario) -> int:
     _forget_other_sweep(out.with_suffix('.sweep'), spec)
     t0 = time.perf_counter()
     report = run_sweep(spec, out.with_suffix('.sweep'), workers=args.workers,
-                       scheduler=args.scheduler)
+                       scheduler=args.scheduler, progress=Progress('chart',
+                                                                   sys.stderr.isatty()))
     wall = time.perf_counter() - t0
     arrays = SweepStore(out.with_suffix('.sweep'), spec).arrays()
     chart = ChartResult(x.key, y.key, np.array(x.values), np.array(y.values),
@@ -341,6 +344,7 @@ def _discretization(args, scenario: Scenario) -> int:
 def cmd_demo(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    kernels_ready()       # the speeds below are of the runs, not of a compilation
     results = {}
     for name, overrides in (('benchmark_fem', []),
                             ('benchmark_fem_soft_torque', ['model.top_drive=soft_torque'])):
@@ -406,6 +410,7 @@ def _first_stick(summary) -> str:
 
 def cmd_reproduce(args) -> int:
     from .reproduce import reproduce
+    kernels_ready()
     bar = Progress('figures', sys.stderr.isatty() or args.progress)
     t0 = time.perf_counter()
     summary = reproduce(args.out, args.figure, quick=args.quick, workers=args.workers,
@@ -414,6 +419,15 @@ def cmd_reproduce(args) -> int:
         print(f"Fig. {fig_id:>6}: {Path(args.out) / entry['png']}  ({entry['wall_s']:.1f} s)")
     print(f'{len(summary)} figures in {time.perf_counter() - t0:.0f} s; numbers in '
           f"{Path(args.out) / 'reproduction.json'}")
+    return 0
+
+
+def cmd_compile(args) -> int:
+    """``compile``: load the physics kernels, compiling them first on a cold cache (the last
+    step of ``make venv``, so that the first run reports its real speed)."""
+    wall = kernels_ready()
+    from .physics.numba_cache import cache_dir
+    print(f'physics kernels ready in {wall:.1f} s (numba cache: {cache_dir()})')
     return 0
 
 
@@ -499,6 +513,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument('--progress', action='store_true', help='progress bar even if stderr is '
                    'not a terminal')
     s.set_defaults(func=cmd_reproduce)
+    s = sub.add_parser('compile', help="compile the physics kernels into numba's cache (once "
+                       'per version and machine; make venv does it)')
+    s.set_defaults(func=cmd_compile)
     add_recording_parsers(sub)
     add_operations_parsers(sub)
     add_estimation_parsers(sub)

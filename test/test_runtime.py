@@ -170,8 +170,9 @@ def test_advisor_worker_answers_like_the_stability_module_and_never_blocks():
 
 
 def test_numba_cache_is_keyed_by_the_jitted_sources(tmp_path):
-    """An edit of any physics file that uses numba gives a new cache directory (stale machine
-    code cannot run); an edit of a file without jitted code keeps the warm cache."""
+    """An edit of any physics file with a jitted function, or of the compiler settings,
+    gives a new cache directory (stale machine code cannot run); an edit of a file without
+    jitted code keeps the warm cache."""
     import shutil
 
     from drill_twin.physics import numba_cache
@@ -188,5 +189,13 @@ def test_numba_cache_is_keyed_by_the_jitted_sources(tmp_path):
     stats = src / 'statistics.py'
     stats.write_text(stats.read_text() + '\n# a comment\n')
     assert numba_cache.source_key(src) == key
+    # the Python API around the kernel names numba in its docstrings, compiles nothing
+    api = src / 'simulation.py'
+    assert b'numba' in api.read_bytes()
+    api.write_text(api.read_text() + '\n# a comment\n')
+    assert numba_cache.source_key(src) == key
+    settings = src / 'jit.py'             # the compiler settings are part of the key
+    settings.write_text(settings.read_text() + '\n# a comment\n')
+    assert numba_cache.source_key(src) != key
     import numba
     assert numba.config.CACHE_DIR == str(numba_cache.cache_dir())

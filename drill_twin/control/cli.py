@@ -37,6 +37,10 @@ def cmd_compare(args) -> int:
         raise ParameterError('need --duration-s > --window-s > 0')
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    from ..console import kernels_ready
+    kernels_ready()
+    print(f'drill-twin control compare: {len(speeds) * len(wobs)} operating points x 4 modes, '
+          f'{args.duration_s:g} s simulated each', file=sys.stderr, flush=True)
     maps = compare_modes(args.config, speeds, wobs, args.duration_s, args.window_s,
                          workers=args.workers,
                          progress=Progress('control compare', sys.stderr.isatty()))

@@ -90,7 +90,7 @@ def compare_modes(config: str, speeds_rad_s, wobs_N, duration_s: float = 300.0,
         for i, r in enumerate(pool.map(_point, jobs)):
             results.append(r)
             if progress is not None:
-                progress((i + 1) / len(jobs))
+                progress((i + 1) / len(jobs), f'{i + 1}/{len(jobs)} runs')
     arr = np.array(results).reshape(len(modes), len(wobs_N), len(speeds_rad_s), 3)
     return [ControlMap(m, np.asarray(speeds_rad_s, float), np.asarray(wobs_N, float),
                        arr[k, :, :, 0], arr[k, :, :, 1], arr[k, :, :, 2],

@@ -35,7 +35,9 @@ def cmd_estimate(args) -> int:
         raise ParameterError(f'{args.target} does not say which string it recorded: give '
                              '--config (an SI finite-element configuration)')
     series = recording_series(rec)
-    est = estimate_recording(series, scenario, tune_every_s=args.self_tuning_period)
+    from ..console import Progress
+    est = estimate_recording(series, scenario, tune_every_s=args.self_tuning_period,
+                             progress=Progress('estimating', sys.stderr.isatty()))
     out = {'recording': str(args.target), 'samples': int(est['time_s'].size),
            'rate_hz': est['rate_hz']}
     if est['rejected']:

@@ -351,18 +351,22 @@ class DownholeEstimator:
             self._speeds.add(float(tors.x[tors.bit_velocity]))
 
     def run(self, samples, tune_every_s: float | None = None,
-            retune: bool = True) -> list[Estimate]:
-        """Every sample of an iterable, in order; with ``tune_every_s`` [s], self-tune
-        that often once the tuning window is full (the fits go to :attr:`fits`)."""
-        if not tune_every_s:
-            return [self.update(s) for s in samples]
-        every = max(1, round(tune_every_s * self.rate_hz))
+            retune: bool = True, progress=None) -> list[Estimate]:
+        """Every sample of a sequence, in order; with ``tune_every_s`` [s], self-tune
+        that often once the tuning window is full (the fits go to :attr:`fits`).
+        ``progress(fraction, detail)`` every 1 % of the samples and after each fit."""
+        every = max(1, round(tune_every_s * self.rate_hz)) if tune_every_s else 0
         first = round(self.tuning.tuning_window_s * self.rate_hz)
+        total = len(samples)
+        report = max(1, total // 100)
         out = []
         for i, sample in enumerate(samples, start=1):
             out.append(self.update(sample))
-            if i >= first and (i - first) % every == 0:
+            fitted = every and i >= first and (i - first) % every == 0
+            if fitted:
                 self.self_tune(retune)
+            if progress is not None and (fitted or i % report == 0 or i == total):
+                progress(i / total, f'{i}/{total} samples, {len(self.fits)} fits')
         return out
 
     # --- self-tuning --------------------------------------------------------------------

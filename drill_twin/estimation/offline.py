@@ -63,9 +63,11 @@ def recording_series(rec) -> dict:
 
 
 def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = None,
-                       noise: SensorNoise | None = None, tune_every_s: float = 120.0) -> dict:
+                       noise: SensorNoise | None = None, tune_every_s: float = 120.0,
+                       progress=None) -> dict:
     """Run the estimator over the series of :func:`recording_series`; the rate is the
-    median sample spacing (samples are taken as one period apart)."""
+    median sample spacing (samples are taken as one period apart).  ``progress`` as
+    :meth:`DownholeEstimator.run`."""
     dt = float(np.median(np.diff(series['time_s'])))
     if not dt > 0:
         raise ParameterError('the recording has no increasing sample times')
@@ -78,7 +80,7 @@ def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = 
         raise ParameterError('the recording has no acceptable surface speed and torque '
                              f'sample to start from (refused: {gate.rejected})')
     est.start(samples[0])
-    result = estimate_series(est.run(samples[1:], tune_every_s))
+    result = estimate_series(est.run(samples[1:], tune_every_s, progress=progress))
     result['time_s'] = series['time_s'][1:]
     result['rate_hz'] = rate
     result['fits'] = [(series['time_s'][0] + t, fit) for t, fit in est.fits]

@@ -5,7 +5,7 @@ import json
 import time
 from pathlib import Path
 
-from ..console import print_summary
+from ..console import kernels_ready, print_summary
 from ..physics.parameters import ParameterError
 
 __all__ = ['add_parsers']
@@ -40,6 +40,7 @@ def cmd_scenario(args) -> int:
             raise ParameterError('scenario run needs a scenario file (or a shipped name: '
                                  '`drill-twin scenario list`)')
         timeline = load_timeline(args.file)
+        kernels_ready()
         t0 = time.perf_counter()
         series = run_timeline(timeline, out=args.out)
         out = _summary(series)
@@ -59,6 +60,7 @@ def cmd_scenario(args) -> int:
     from ..physics.scenario import CONFIG_DIR
     out_dir = Path(args.out or 'docs/figures')
     out_dir.mkdir(parents=True, exist_ok=True)
+    kernels_ready()
     numbers = {}
     for path in sorted((CONFIG_DIR / 'operations').glob('*.yaml')):
         timeline = load_timeline(path)

@@ -31,11 +31,27 @@ from __future__ import annotations
 
 from numba import njit
 
-__all__ = ['kernel_jit']
+__all__ = ['kernel_jit', 'entry_jit', 'COMPILED_FUNCTIONS']
+
+#: names of the kernel's functions that numba compiles on their own (not inlined): what a
+#: cold start compiles, for a progress count
+COMPILED_FUNCTIONS: list = []
+
+
+def entry_jit(func):
+    """Decorate an entry point of the kernel (called from Python, allocates its scratch
+    arrays, so it keeps numba's runtime): ``njit(cache=True, nogil=True)``."""
+    COMPILED_FUNCTIONS.append(f'{func.__module__}.{func.__qualname__}')
+    return njit(cache=True, nogil=True)(func)
 
 
 def kernel_jit(func=None, *, inline: str = 'never'):
     """Decorate a stepping-path function: ``njit(cache=True, nogil=True, _nrt=False)``
     (``inline='always'`` for numba-level inlining of tiny helpers)."""
     jit = njit(cache=True, nogil=True, inline=inline, _nrt=False)
-    return jit if func is None else jit(func)
+
+    def decorate(f):
+        if inline == 'never':
+            COMPILED_FUNCTIONS.append(f'{f.__module__}.{f.__qualname__}')
+        return jit(f)
+    return decorate if func is None else decorate(func)

@@ -36,7 +36,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from .bottom_surface import read_surface, write_step
 from .interface_law import (
@@ -56,7 +55,7 @@ from .interface_law import (
     switching,
     transition,
 )
-from .jit import kernel_jit
+from .jit import entry_jit, kernel_jit
 from .time_history import (
     N_SIGNALS,
     S_BIT_ANGULAR_SPEED,
@@ -364,7 +363,7 @@ class Work(NamedTuple):
 _SIZES_ROW = len(Work._fields)   # after one row per field: n, na, nt and the blade groups
 
 
-@njit(cache=True, nogil=True)
+@entry_jit
 def _work(n, na, nt, groups):
     """The scratch array (one row per :class:`Work` field, then the sizes)."""
     width = max(n, N_AUX, 3 + groups, N_SIGNALS, 4)
@@ -887,7 +886,7 @@ def _write_record(tau, stick_time, x, mode, law, top, inp, A, T, surf, geom, th,
     row[24] = top.omega_o * tau + (x[p0] if nt > 1 and top.drive_node > 0.0 else x[d])
 
 
-@njit(cache=True, nogil=True)
+@entry_jit
 def snapshot(tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, row):
     """The record row of the current state, without advancing."""
     na = A.shape[1]
@@ -897,7 +896,7 @@ def snapshot(tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, row):
                   work, row, False)
 
 
-@njit(cache=True, nogil=True)
+@entry_jit
 def advance(n_steps, h, tau_arr, x, mode, law, top, inp, A, T, surf, geom, th, thm, counters,
             start, record, record_every, n_rec, state_record):
     """Advance ``n_steps`` steps of size ``h`` (dimensionless) in place.

@@ -19,22 +19,28 @@ import re
 import shutil
 from pathlib import Path
 
-__all__ = ['source_key', 'cache_root', 'cache_dir', 'configure', 'clear']
+__all__ = ['source_key', 'cache_root', 'cache_dir', 'configure', 'clear', 'is_cached']
 
 PHYSICS_DIR = Path(__file__).resolve().parent
 #: other folders whose jitted code shares the cache (the stability module's Newton refinement)
 OTHER_DIRS = (PHYSICS_DIR.parent / 'stability',)
 
 
+#: a file whose functions numba compiles: one with a decorated definition
+_COMPILES = re.compile(rb'^@(kernel_jit|njit)\b', re.M)
+
+
 def source_key(folder: Path = PHYSICS_DIR, others=OTHER_DIRS) -> str:
     """16 hex digits of SHA-256 over the names and contents of the ``*.py`` files of
-    ``folder`` and ``others`` that compile code: those that mention numba or the kernel's
-    decorator ``kernel_jit`` (:mod:`drill_twin.physics.jit`)."""
+    ``folder`` and ``others`` that numba compiles — those with a function decorated by
+    ``@njit`` or the kernel's ``@kernel_jit`` — and of :mod:`drill_twin.physics.jit`, which
+    holds the compiler settings.  Editing any other file (the Python API around the
+    kernel, a docstring of the configuration) keeps the cache."""
     digest = hashlib.sha256()
     paths = [p for d in (folder, *others) for p in sorted(Path(d).glob('*.py'))]
     for path in paths:
         text = path.read_bytes()
-        if b'numba' not in text and b'kernel_jit' not in text:
+        if not (_COMPILES.search(text) or path.name == 'jit.py'):
             continue
         digest.update(path.name.encode())
         digest.update(b'\0')
@@ -75,3 +81,20 @@ def clear() -> int:
                 shutil.rmtree(entry, ignore_errors=True)
                 removed += 1
     return removed
+
+
+def is_cached(dispatcher) -> bool:
+    """Whether numba's cache holds machine code of ``dispatcher`` (a ``cache=True`` jitted
+    function) for this CPU: its index names an entry compiled for this machine's target
+    (numba keys entries by signature and by CPU name and features)."""
+    cache = getattr(dispatcher, '_cache', None)
+    impl = getattr(cache, '_cache_file', None)
+    if impl is None:
+        return False
+    try:
+        index = impl._load_index()
+    except Exception:  # noqa: BLE001 - an unreadable index is a cold cache
+        return False
+    from numba.core.registry import cpu_target
+    magic = cpu_target.target_context.codegen().magic_tuple()
+    return any(isinstance(key, tuple) and len(key) >= 2 and key[1] == magic for key in index)

@@ -17,7 +17,7 @@ import numpy as np
 from . import kernel as K
 from .bottom_surface import fill_steady, new_surface, nodes_for
 from .interface_law import ANG_SLIP, AX_DOWN, AX_UP, MD_ANG, MD_AX, MD_CONTACT
-from .models import StringModel, max_stable_step
+from .models import StringModel, max_stable_step, rgd
 from .parameters import BitRockGroups, ParameterError
 from .time_history import (
     N_SIGNALS,
@@ -28,7 +28,8 @@ from .time_history import (
 )
 from .top_drive import kernel_drive
 
-__all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling']
+__all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling',
+           'compile_kernels']
 
 _RECORD_NAMES = {name: i for i, name in enumerate(K.RECORD_CHANNELS)}
 
@@ -362,3 +363,13 @@ class Simulation:
     @property
     def impulse_count(self) -> int:
         return int(self.counters[K.C_IMPULSES])
+
+
+def compile_kernels():
+    """Compile (or load from numba's cache) every kernel a simulation runs.
+
+    Every model runs the same compiled code (the kernel's arguments have the same types
+    whatever the model: its size and drives are data), so warming up the smallest model
+    — the RGD of thesis §4.1 at the point of its stick-slip figure — compiles it all."""
+    groups = BitRockGroups(n_b=6, lam=5.0 / 6.0, beta=0.3, W_o=7.0, omega_o=5.0, psi=50.0)
+    Simulation(rgd(50.0), groups, 2e-3).warm_up()

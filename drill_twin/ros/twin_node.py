@@ -48,6 +48,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from .. import topics as T
+from ..console import LogProgress, prepare_kernels
 from ..io.run_recorder import TwinRecorder
 from ..operations.driller import Driller, ScenarioError
 from ..operations.timeline import load_timeline
@@ -186,8 +187,9 @@ class TwinNode(LifecycleNode):
             config = g('config')
         self._source = (config, overrides)
         with interruptible():  # a signal while compiling ends the process at once
-            self.get_logger().info(f"loading {g('scenario') or config}; compiling the kernels "
-                                   "if numba's cache is cold")
+            log = self.get_logger().info
+            log(f"loading {g('scenario') or config}")
+            prepare_kernels(say=log, progress=LogProgress(log, 'compiling the physics kernels'))
             scenario = load_scenario(config, overrides, label='parameter overrides:')
             self.fast = g('as_fast_as_possible')
             # a publish period of simulated time is a whole number of integration steps, so that

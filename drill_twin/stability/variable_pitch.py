@@ -26,10 +26,11 @@ PITCHES_DEG = (0.0, 20.0, 40.0, 60.0)
 
 
 def variable_pitch_charts(n=(120, 80), a=(0.3, 40.0), b=(0.2, 12.0), damping: float = 0.0,
-                          pitches=PITCHES_DEG, workers=None) -> dict:
+                          pitches=PITCHES_DEG, workers=None, progress=None) -> dict:
     """One stability chart per pitch variation; returns ``{δ: ChartResult}`` and the
     numbers that answer the question (stable fraction of the window, the smallest b that
-    is unstable, and that b's mean over a)."""
+    is unstable, and that b's mean over a).  ``progress(fraction, detail)`` after each
+    chart."""
     xs = np.linspace(*a, n[0])
     ys = np.linspace(*b, n[1])
     out = {}
@@ -44,6 +45,8 @@ def variable_pitch_charts(n=(120, 80), a=(0.3, 40.0), b=(0.2, 12.0), damping: fl
         out[delta] = {'chart': chart, 'stable_fraction': float((~unstable).mean()),
                       'min_unstable_b': float(np.nanmin(lowest)),
                       'mean_lowest_unstable_b': float(np.nanmean(lowest))}
+        if progress is not None:
+            progress(len(out) / len(pitches), f'{len(out)}/{len(pitches)} charts')
     return out
 
 

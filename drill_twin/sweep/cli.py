@@ -82,7 +82,12 @@ def _block_points(args, out: Path) -> int:
     if stored is not None:
         return int(stored['block_points'])
     probe = spec_from_args(args, 1)
-    evaluate_block(probe, probe.points // 2)   # compiles (or loads) the kernels: not timed
+    if probe.kind == 'nonlinear':
+        from ..console import kernels_ready
+        kernels_ready()
+    print('drill-twin sweep: timing three points to size the blocks ...', file=sys.stderr,
+          flush=True)
+    evaluate_block(probe, probe.points // 2)   # (a linear point's first call loads scipy)
     seconds = 0.0
     for flat in sorted({0, probe.points // 2, probe.points - 1}):   # the slowest of three
         t0 = time.perf_counter()

@@ -76,7 +76,7 @@ def run_sweep(spec: SweepSpec, out, scheduler: str | None = None,
               workers: int | None = None, progress=None) -> SweepReport:
     """Compute the blocks of ``spec`` not yet in ``out``, store each as it arrives, write
     ``out/sweep.nc`` at the end (also when interrupted).  ``progress(fraction)`` is called
-    as blocks arrive."""
+    as blocks arrive, with a detail line 'k/N blocks'."""
     store = SweepStore(out, spec)
     store.begin_run()
     done = store.done()
@@ -99,9 +99,10 @@ def _progress(progress, already, total):
     def tick():
         count[0] += 1
         if progress is not None:
-            progress(count[0] / total)
+            progress(count[0] / total, f'{count[0]}/{total} blocks')
     if progress is not None:
-        progress(already / total)
+        progress(already / total, f'{already}/{total} blocks' + (' (resumed)' if already
+                                                                  else ''))
     return tick
 
 
