@@ -12,10 +12,13 @@ REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirem
 venv: $(STAMP)
 
 $(STAMP): $(REQS)
+	@echo "make venv: creating $(VENV) and installing the locked dependencies (first time: 2-4 min)"
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q -c requirements/constraints.txt \
 		-r requirements/base.txt -r requirements/ros.txt -r requirements/dev.txt
 	$(PY) -m pip install -q --no-deps -e .
+	@echo "make venv: dependencies installed"
+	$(PY) -m drill_twin.cli compile
 	touch $(STAMP)
 
 demo: $(STAMP)
