@@ -20,7 +20,8 @@ __all__ = ['QoS', 'Topic', 'TOPICS', 'JOINTS', 'COMMANDS_TOPIC', 'BY_NAME', 'SEN
            'SETPOINT', 'COMMAND', 'EVENTS',
            'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
            'FLOAT64', 'MEASUREMENTS', 'PARAMETER_EVENTS', 'parameter_event_fields',
-           'parameter_value_fields', 'parameter_value', 'SURFACE_INPUTS', 'ESTIMATE_TOPICS']
+           'parameter_value_fields', 'parameter_value', 'SURFACE_INPUTS', 'ESTIMATE_TOPICS',
+           'RECORDABLE', 'RECORDABLE_BY_NAME']
 
 
 @dataclass(frozen=True)
@@ -182,6 +183,11 @@ ESTIMATE_TOPICS = (
     Topic('estimate/stick_slip_severity', FLOAT64, SENSOR, 'estimate',
           lambda e, st: {'data': float(e['stick_slip_severity'])}),
 )
+
+
+#: every topic a drill_twin node publishes or reads: what ``mcap_recorder`` knows
+RECORDABLE = TOPICS + ESTIMATE_TOPICS
+RECORDABLE_BY_NAME = {t.name: t for t in RECORDABLE}
 
 
 def _finite(value) -> float:

@@ -86,6 +86,38 @@ def test_stamps_are_the_ros_time_of_the_simulated_instant_and_stay_continuous():
     assert np.allclose(gaps, 0.01, atol=1e-9)   # evenly spaced, across the rate change
 
 
+def test_a_rate_change_between_ticks_samples_a_new_instant_at_the_next_tick():
+    """``ros2 param set real_time_factor`` lands between two ticks: the next tick samples the
+    next instant of the new grid (before, it found its instant reached and published the
+    same sample twice)."""
+    h = aligned_step(1.43e-3, 0.01)
+    pacer = Pacer(1.0, 0.01, h)
+    loop = Loop(pacer, h)
+    for _ in range(5):
+        loop.tick()
+    for factor in (2.0, 1.0):
+        before = loop.sim
+        pacer.retime(loop.wall + 0.004, loop.sim, real_time_factor=factor)
+        loop.tick()
+        assert loop.sim == pytest.approx(before + factor * 0.01, abs=1e-9)
+        assert not loop.outcomes[-1]
+
+
+def test_a_tick_out_of_budget_still_ends_on_the_sample_grid():
+    """A tick far behind advances at most its budget, a whole number of samples: every
+    sample it publishes lies on the grid of the publish period (before, a budget of
+    4 samples + 4 steps gave samples 32 steps = 45.7 ms apart, off the 10 ms grid)."""
+    h = aligned_step(1.43e-3, 0.01)
+    pacer = Pacer(1.0, 0.01, h, catch_up=4, max_lag_s=0.5)
+    loop = Loop(pacer, h)
+    loop.tick()
+    loop.tick(stall=0.3)
+    while loop.outcomes[-1] == 'overrun':
+        samples = loop.sim / 0.01
+        assert samples == pytest.approx(round(samples), abs=1e-6)
+        loop.tick()
+
+
 def test_aligned_step_divides_the_period_and_never_lengthens_the_step():
     for step, period in ((1.49e-3, 0.01), (5e-3, 0.01), (3.25e-4, 0.05), (0.02, 0.01)):
         h = aligned_step(step, period)

@@ -15,7 +15,7 @@ from ..physics.scenario import load_scenario, read_config, resolve_config
 from ..physics.soft_torque import SoftTorqueController
 from ..physics.top_drive import CONTROLLERS, TopDrive
 
-__all__ = ['CONTROLLERS', 'mode_drive', 'external_controller']
+__all__ = ['CONTROLLERS', 'mode_drive', 'external_controller', 'configured_speed']
 
 
 def mode_drive(mode: str, config: str, overrides=()) -> TopDrive:
@@ -29,6 +29,13 @@ def mode_drive(mode: str, config: str, overrides=()) -> TopDrive:
     sc = load_scenario(config, list(overrides) + ['model.top_drive=motor',
                                                   f'drive.controller={mode}'])
     return sc.model.top_drive
+
+
+def configured_speed(config: str, overrides=()) -> float:
+    """The surface speed of the configuration's operating point [rad/s]: what the twin built
+    from the same configuration turns at until an operator set-point arrives."""
+    sc = load_scenario(config, list(overrides))
+    return float(sc.groups.omega_o / sc.scales.time_s)
 
 
 def external_controller(drive: TopDrive, **limits) -> SoftTorqueController:

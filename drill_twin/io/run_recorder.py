@@ -122,9 +122,27 @@ class TwinRecorder:
             node=node, model=twin.scenario.model.name, scenario=json.dumps(twin.scenario.raw),
             twin=json.dumps(twin.settings()), settings=json.dumps(settings or {})))
 
+        self._held = None
+
     @property
     def path(self):
         return self.writer.path
+
+    def hold(self):
+        """Simulated time is held (the twin paused or inactive): set-points applied from now
+        on are kept, the last of each topic, and written by :meth:`release` — a controller
+        streaming commands at 100 Hz into a held twin would otherwise fill the file with
+        messages at one instant, which a replay plays as a burst.  The twin's state when
+        time resumes is that of the last value of each (kept in the order they were last
+        applied), so resimulation is unchanged."""
+        if self._held is None:
+            self._held = {}
+
+    def release(self):
+        """Time runs again: write the set-points kept while held (at the current time)."""
+        held, self._held = self._held, None
+        for name, value in (held or {}).items():
+            self._write(name, {'data': value}, self.twin.time_s)
 
     def _write(self, name, fields, time_s):
         topic = BY_NAME[name]
@@ -145,6 +163,10 @@ class TwinRecorder:
         """A set-point as the twin applied (or rejected) it, at the twin's current time."""
         if BY_NAME[name].role != 'setpoint':
             raise ValueError(f'{name} is not a set-point topic')
+        if self._held is not None:
+            self._held.pop(name, None)    # re-inserted last: the order of the last values
+            self._held[name] = float(value)
+            return
         self._write(name, {'data': float(value)}, self.twin.time_s)
 
     def event(self, name: str, fields: dict, time_s: float | None = None):
@@ -165,6 +187,7 @@ class TwinRecorder:
         self.writer.flush()
 
     def close(self):
+        self.release()
         self.writer.close()
 
 

@@ -7,6 +7,7 @@ import sys
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 
@@ -14,7 +15,7 @@ from ..physics.parameters import ParameterError
 from ..runtime.settings import Setting, check
 from .entry import install_quiet_signals, rclpy_took_over
 
-__all__ = ['float_range', 'declare_settings', 'warn_unknown_overrides', 'run_node']
+__all__ = ['float_range', 'declare_settings', 'warn_unknown_overrides', 'run_node', 'say']
 
 
 def float_range(lo, hi, text) -> ParameterDescriptor:
@@ -69,6 +70,16 @@ def warn_unknown_overrides(node):
         node.get_logger().warning(f'unknown parameter {name!r} ignored{hint}')
 
 
+def say(node, text: str):
+    """Log ``text`` as the node, or — when a signal has already shut the node's context
+    down (its /rosout publisher is gone) — print it to stderr in the log's format; rclpy
+    would otherwise report 'Failed to publish log message to rosout'."""
+    if node.context.ok():
+        node.get_logger().info(text)
+    else:
+        print(f'[INFO] [{node.get_name()}]: {text}', file=sys.stderr, flush=True)
+
+
 def _one_line(exc) -> str:
     return ' '.join(str(exc).split())
 
@@ -83,7 +94,13 @@ def run_node(node_class, label, args=None) -> int:
     import threading
     if threading.current_thread() is threading.main_thread():
         install_quiet_signals()   # rclpy chains its handlers to these
-    rclpy.init(args=args)
+    try:
+        rclpy.init(args=args)
+    except RCLError as exc:      # ROS could not parse the command line's --ros-args
+        print(f'{label}: error: the ROS arguments do not parse ({_one_line(exc)}); note '
+              "that an empty value such as -p record_path:='' reaches ROS as nothing: write "
+              "-p record_path:=none", file=sys.stderr)
+        return 2
     rclpy_took_over()
     node = None
     try:
@@ -113,4 +130,16 @@ def run_node(node_class, label, args=None) -> int:
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+        _leave_the_graph()
     return 0
+
+
+def _leave_the_graph():
+    """Finalise the default context: its DDS participant is deleted and announces that it
+    leaves, so ``ros2 node list`` drops the node at once.  Without this the process left by
+    ``os._exit`` (:func:`drill_twin.ros.entry._run`) before the participant was deleted,
+    and discovery kept the node listed until its lease ran out (25-45 s)."""
+    try:
+        rclpy.utilities.get_default_context().destroy()
+    except Exception:  # noqa: BLE001 - already destroyed, or never initialised
+        pass

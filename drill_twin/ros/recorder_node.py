@@ -1,9 +1,10 @@
 """``mcap_recorder``: record the drill_twin topics of a ROS graph to one MCAP file.
 
-Subscribes (raw CDR, no decode/encode) to every topic of the twin's interface
-(:data:`drill_twin.topics.TOPICS`: set-points, controller commands, bit and
-surface measurements, stability advisories, ``/diagnostics``, ``/clock``) with
-the QoS their publishers offer, and writes a rosbag2-profile MCAP file
+Subscribes (raw CDR, no decode/encode) to every topic a drill_twin node publishes or
+reads (:data:`drill_twin.topics.RECORDABLE`: set-points, controller commands, bit and
+surface measurements, stability advisories, the downhole estimator's estimates,
+``/diagnostics``, ``/clock``, ``/parameter_events``) with the QoS their publishers
+offer, and writes a rosbag2-profile MCAP file
 (:class:`drill_twin.io.mcap_writer.McapRecorder`).  Log time is this node's
 ROS time: run it with ``use_sim_time`` when the twin publishes ``/clock``.
 A chunk holds at most ``chunk_period_s``: SIGKILL loses at most that much;
@@ -27,7 +28,7 @@ from ..io.mcap_writer import McapRecorder
 from ..io.run_recorder import package_version, run_metadata
 from ..physics.parameters import ParameterError
 from ..runtime.settings import RECORDER_SETTINGS, ros_home
-from .common import declare_settings, run_node, warn_unknown_overrides
+from .common import declare_settings, run_node, say, warn_unknown_overrides
 from .messages import message_class, qos_profile
 
 __all__ = ['RecorderNode', 'main']
@@ -45,16 +46,18 @@ class RecorderNode(Node):
             ros_home(), 'drill_twin', f'mcap_recorder_{stamp}.mcap')
         g = self.get_parameter
         wanted = [t for t in g('topics').value if t]
-        unknown = set(wanted) - set(T.BY_NAME)
+        wanted = [w.lstrip('/') if w.lstrip('/') in T.RECORDABLE_BY_NAME else w
+                  for w in wanted]
+        unknown = set(wanted) - set(T.RECORDABLE_BY_NAME)
         if unknown:
             raise ParameterError(f'not drill_twin topics: {sorted(unknown)}; known: '
-                             f'{", ".join(T.BY_NAME)}')
+                                 f'{", ".join(T.RECORDABLE_BY_NAME)}')
         self.writer = McapRecorder(path, chunk_period_s=g('chunk_period_s').value,
                                    library=f'drill_twin {package_version()} mcap_recorder')
         self.writer.add_metadata(RUN_METADATA, run_metadata(
             'ros_time', self.get_namespace(), topics=json.dumps(wanted or 'all'),
             use_sim_time=str(g('use_sim_time').value).lower()))
-        for topic in T.TOPICS:
+        for topic in T.RECORDABLE:
             if wanted and topic.name not in wanted:
                 continue
             name = self.resolve_topic_name(topic.name)
@@ -63,7 +66,7 @@ class RecorderNode(Node):
                 lambda data, n=name, t=topic: self._record(n, t, data),
                 qos_profile(topic.qos), raw=True)
         self.create_timer(g('chunk_period_s').value, self.writer.flush)
-        self.get_logger().info(f'recording {len(wanted) or len(T.TOPICS)} topics to '
+        self.get_logger().info(f'recording {len(wanted) or len(T.RECORDABLE)} topics to '
                                f'{self.writer.path}')
 
     def _record(self, name, topic, data: bytes):
@@ -71,7 +74,7 @@ class RecorderNode(Node):
 
     def destroy_node(self):
         self.writer.close()
-        self.get_logger().info(f'{self.writer.messages_written} messages in {self.writer.path}')
+        say(self, f'{self.writer.messages_written} messages in {self.writer.path}')
         return super().destroy_node()
 
 

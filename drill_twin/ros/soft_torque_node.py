@@ -1,22 +1,25 @@
 """``top_drive_controller`` (and its old name ``soft_torque_node``): the top-drive
-controller modes over topics (adapter over :mod:`drill_twin.control.external`).
+controller modes over topics (adapter over :mod:`drill_twin.control.external` and the
+policy of :class:`drill_twin.runtime.controller.ControllerSupervisor`).
 
 ``mode`` (start-up): ``soft_torque`` (default; the §3.2 tuning), ``z_torque``
 (impedance matching), ``stability_tuned`` (gains tuned by the stability module at
 start-up, seconds) or ``stiff_pi`` (pass-through: the drive's own loop).  Inputs: the
-operator's ``surface_speed_setpoint`` [rad/s] and the measured ``surface/torque`` [N m].
-Output: ``surface_speed_command`` [rad/s] at ``control_rate_hz``.  Gains are computed
-from the string in ``config`` (its motor drive data).  The controller integrates on the
-node clock, so with ``use_sim_time`` it follows the twin's ``/clock``.
-If torque measurements stop for ``measurement_timeout_s``
-(:class:`~drill_twin.runtime.arbitration.Watchdog`) the node commands the
-operator set-point unchanged and says so (diagnostics + log); it resumes when
-measurements return.  Every parameter but ``config`` applies at run time:
-validated when set, applied after success (post-set callback).
+operator's ``surface_speed_setpoint`` [rad/s] and the measured ``surface/torque`` [N m],
+each gated (out-of-range, non-finite or unconfirmed jumping samples are refused, logged
+and counted; the last accepted value stays).  Until an operator set-point arrives the
+controller tracks the operating point of ``config`` (what the twin built from the same
+configuration turns at).  Output: ``surface_speed_command`` [rad/s] at
+``control_rate_hz``.  Gains are computed from the string in ``config`` (its motor drive
+data).  The controller integrates on the node clock, so with ``use_sim_time`` it follows
+the twin's ``/clock``.  If torque measurements stop for ``measurement_timeout_s`` the node
+commands the operator set-point unchanged and says so (diagnostics WARN + log); it resumes
+when measurements return.  A command held at a speed bound is a WARN too.  Every
+parameter but ``config`` applies at run time: validated when set, applied after success
+(post-set callback).
 """
 from __future__ import annotations
 
-import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -25,8 +28,8 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
-from ..control.external import external_controller, mode_drive
-from ..runtime.arbitration import Watchdog
+from ..control.external import configured_speed, external_controller, mode_drive
+from ..runtime.controller import ControllerSupervisor
 from ..runtime.settings import CONTROLLER_SETTINGS
 from .common import declare_settings, run_node, warn_unknown_overrides
 from .twin_node import COMMAND_QOS, SETPOINT_QOS
@@ -49,12 +52,12 @@ class TopDriveControllerNode(Node):
             max_accel_rad_s2=g('max_acceleration_rad_s2'),
             torque_filter_s=g('torque_filter_s'))
         self.ctrl.enabled = g('enabled') and self.mode != 'stiff_pi'
-        self.setpoint = None
-        self.torque = None
-        self.torque_watch = Watchdog(g('measurement_timeout_s'))
-        self.fallbacks = 0
-        self.in_fallback = False
-        self.rejected = 0
+        # the twin built from the same configuration turns at its operating point until an
+        # operator set-point arrives: track that from the start, not nothing
+        self.policy = ControllerSupervisor(
+            self.ctrl, configured_speed(g('config')), g('measurement_timeout_s'),
+            max_torque_Nm=g('max_surface_torque_Nm'),
+            max_torque_jump_Nm=g('max_torque_jump_Nm'))
         self.create_subscription(Float64, 'surface_speed_setpoint', self._on_setpoint,
                                  SETPOINT_QOS)
         self.create_subscription(Float64, 'surface/torque', self._on_torque,
@@ -70,31 +73,46 @@ class TopDriveControllerNode(Node):
         self.get_logger().info(
             f'{self.mode}: J {self.drive.motor_inertia_kgm2:.0f} kg m2, K_p '
             f'{gains.proportional_Nms_rad:.4g} N m s/rad, K_i {gains.integral_Nm_rad:.4g} '
-            f'N m/rad, g_T {gains.torque_feedback_rad_s_Nm:.4g} rad/s/(N m)')
+            f'N m/rad, g_T {gains.torque_feedback_rad_s_Nm:.4g} rad/s/(N m); tracking the '
+            f"configured set-point {self.policy.setpoint:g} rad/s of {g('config')} until an "
+            'operator set-point arrives')
+
+    @property
+    def setpoint(self) -> float:
+        """The set-point tracked [rad/s]."""
+        return self.policy.setpoint
+
+    @property
+    def in_fallback(self) -> bool:
+        return self.policy.in_fallback
+
+    @property
+    def fallbacks(self) -> int:
+        return self.policy.fallbacks
+
+    @property
+    def rejected(self) -> int:
+        """Set-points refused."""
+        return self.policy.rejected_setpoints
 
     def _param(self, name):
         return self.get_parameter(name).value
 
     def _on_setpoint(self, msg):
-        value = msg.data
-        if not (math.isfinite(value) and 0.0 <= value <= self.ctrl.max_speed):
-            self.rejected += 1
-            self.get_logger().warning(
-                f'rejected set-point {value} rad/s: outside [0, {self.ctrl.max_speed:g}] rad/s; '
-                f'keeping {self.setpoint}')
-            return
-        self.setpoint = value
+        why = self.policy.on_setpoint(msg.data, time.monotonic())
+        if why is not None:
+            self.get_logger().warning(f'rejected {why}', throttle_duration_sec=1.0)
 
     def _on_torque(self, msg):
-        if math.isfinite(msg.data):  # non-finite measurements are ignored
-            self.torque = msg.data
-            self.torque_watch.feed(time.monotonic())
+        why = self.policy.on_torque(msg.data, time.monotonic())
+        if why is not None:
+            self.get_logger().warning(f'refused surface/torque sample: {why}',
+                                      throttle_duration_sec=1.0)
 
     # --- parameters: validate on set, apply after ------------------------------------
     def _validate_parameters(self, params):
         for prm in params:
-            if prm.name == 'max_surface_speed_rad_s' and self.setpoint is not None \
-                    and prm.value < self.setpoint:
+            if prm.name == 'max_surface_speed_rad_s' and prm.value < self.setpoint:
                 return SetParametersResult(successful=False, reason=(
                     f'max_surface_speed_rad_s {prm.value:g} rad/s is below the set-point '
                     f'{self.setpoint:g} rad/s; lower the set-point first'))
@@ -104,8 +122,8 @@ class TopDriveControllerNode(Node):
         for prm in params:
             if prm.name == 'enabled':
                 self.ctrl.enabled = bool(prm.value) and self.mode != 'stiff_pi'
-                if prm.value and self.setpoint is not None:
-                    self.ctrl.reset(self.setpoint, torque=self.torque)
+                if prm.value:
+                    self.ctrl.reset(self.setpoint, torque=self.policy.torque.latest)
             elif prm.name == 'control_rate_hz':
                 self._timer.cancel()
                 self.destroy_timer(self._timer)
@@ -117,47 +135,35 @@ class TopDriveControllerNode(Node):
             elif prm.name == 'torque_filter_s':
                 self.ctrl.torque_filter_s = float(prm.value)
             elif prm.name == 'measurement_timeout_s':
-                self.torque_watch.timeout_s = float(prm.value)
+                self.policy.watch.timeout_s = float(prm.value)
 
     # --- control loop ------------------------------------------------------------------
     def _control(self):
-        if self.setpoint is None:
-            return  # nothing to track yet
         # the node clock: wall time, or simulated time under use_sim_time (/clock)
         clock_now = self.get_clock().now().nanoseconds * 1e-9
         dt = (clock_now - self._last) if self._last is not None else 0.0
         self._last = clock_now
         if dt <= 0.0:
             dt = 1.0 / self._param('control_rate_hz')
-        if self.torque_watch.expired(time.monotonic()):  # it was arriving, and stopped
-            self.fallbacks += 1
-            self.get_logger().warning('surface torque not arriving: holding the operator '
-                                      'set-point')
-        if self.torque_watch.silent:
-            self.in_fallback = True
-            self.ctrl.reset(self.setpoint, torque=self.torque)
-            command = self.setpoint
-        else:
-            if self.in_fallback:
-                self.get_logger().info(f'surface torque back: {self.mode} resumes')
-                self.in_fallback = False
-            command = self.ctrl.update(dt, self.setpoint, self.torque)
+        command, note = self.policy.command(dt, time.monotonic())
+        if note is not None:
+            self.get_logger().warning(note) if 'not arriving' in note else \
+                self.get_logger().info(note)
         self.cmd_pub.publish(Float64(data=float(command)))
 
     def _diagnostics(self):
         st = DiagnosticStatus(name=f'drill_twin: {self.get_name()}', hardware_id='drill_twin')
-        if self.in_fallback:
-            st.level = DiagnosticStatus.WARN
-            st.message = ('surface torque stopped: holding the set-point' if
-                          self.torque_watch.last_s is not None else
-                          'no surface torque yet: holding the set-point')
-        else:
-            st.level = DiagnosticStatus.OK
-            st.message = f'{self.mode} enabled' if self.ctrl.enabled else \
-                f'{self.mode}: passing the set-point'
+        level, message = self.policy.status(time.monotonic())
+        st.level = DiagnosticStatus.WARN if level else DiagnosticStatus.OK
+        st.message = f'{self.mode}: {message}'
         g = self.drive.gains
-        st.values = [KeyValue(key='fallbacks', value=str(self.fallbacks)),
-                     KeyValue(key='rejected_setpoints', value=str(self.rejected)),
+        p = self.policy
+        st.values = [KeyValue(key='fallbacks', value=str(p.fallbacks)),
+                     KeyValue(key='rejected_setpoints', value=str(p.rejected_setpoints)),
+                     KeyValue(key='refused_torque_samples', value=str(p.torque.refused)),
+                     KeyValue(key='setpoint_rad_s', value=f'{p.setpoint:.6g}'),
+                     KeyValue(key='command_rad_s', value='none' if p.command_rad_s is None
+                              else f'{p.command_rad_s:.6g}'),
                      KeyValue(key='mode', value=self.mode),
                      KeyValue(key='proportional_gain_Nms_rad',
                               value=f'{g.proportional_Nms_rad:.6g}'),

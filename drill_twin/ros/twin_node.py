@@ -76,6 +76,9 @@ COMMAND_QOS = qos_profile(T.COMMAND)
 
 #: how far back /diagnostics levels look [s]
 HEALTH_WINDOW_S = 10.0
+#: values of ``record_path`` that switch recording off ('' cannot be written in a shell:
+#: ``record_path:=''`` reaches ROS as nothing)
+RECORDING_OFF = ('', 'none', 'off')
 
 
 def _reply(response, success: bool, message: str, logger=None):
@@ -152,6 +155,7 @@ class TwinNode(LifecycleNode):
         """Simulated time runs from where it was held (pacing re-anchored to now)."""
         self._resume_pacing()
         self.active = True
+        self._hold_recording()
         self._timer.reset()
         self.get_logger().info(f'active at t = {self.twin.time_s:.3f} s')
         return super().on_activate(state)
@@ -159,6 +163,7 @@ class TwinNode(LifecycleNode):
     def on_deactivate(self, state):
         """Hold: simulated time stops, nothing is published but /diagnostics."""
         self.active = False
+        self._hold_recording()
         self._timer.cancel()
         self.get_logger().info(f'inactive: held at t = {self.twin.time_s:.3f} s')
         return super().on_deactivate(state)
@@ -169,7 +174,9 @@ class TwinNode(LifecycleNode):
         return super().on_cleanup(state)
 
     def on_shutdown(self, state):
+        recording = self.recorder.path if self.recorder is not None else None
         self._release()
+        self.get_logger().info('shut down' + (f': {recording} closed' if recording else ''))
         return super().on_shutdown(state)
 
     def _build_twin(self):
@@ -214,7 +221,7 @@ class TwinNode(LifecycleNode):
         """The run's recording; a configuration after a cleanup records to a numbered
         sibling (``run_2.mcap``), so that nothing recorded before is overwritten."""
         path = self._param('record_path')
-        if not path:
+        if path.strip().lower() in RECORDING_OFF:
             return
         if self._configurations:
             path = Path(path)
@@ -228,6 +235,7 @@ class TwinNode(LifecycleNode):
                       'real_time_factor': self._param('real_time_factor'),
                       'as_fast_as_possible': self.fast, 'source': 'twin_node'})
         self.get_logger().info(f'recording to {path}')
+        self._hold_recording()
 
     def _create_interface(self):
         """Subscriptions, publishers (lifecycle publishers: silent unless active; /diagnostics
@@ -280,6 +288,15 @@ class TwinNode(LifecycleNode):
             self.recorder = None
         self.twin = self.driller = None
 
+    def _hold_recording(self):
+        """Set-points are recorded when simulated time runs; while it is held (inactive,
+        paused) the recorder keeps the last of each (:meth:`TwinRecorder.hold`)."""
+        if self.recorder is not None:
+            if self.active and not self.paused:
+                self.recorder.release()
+            else:
+                self.recorder.hold()
+
     def _resume_pacing(self):
         """Re-anchor the pacing to now: simulated time goes on from where it was held."""
         if self.pacer.started:
@@ -318,8 +335,10 @@ class TwinNode(LifecycleNode):
             return True
         except SetpointError as exc:
             self.health.add('rejected', time.monotonic())
-            self.get_logger().warning(f'rejected {source}: {exc}; keeping '
-                                      f'{self.twin.surface_speed_setpoint:.3f} rad/s')
+            kept = (f'the operator set-point {self.arbiter.operator_speed:g} rad/s'
+                    if source != 'surface_speed_command' else
+                    f'{self.twin.surface_speed_setpoint:.3f} rad/s')
+            self.get_logger().warning(f'rejected {source}: {exc}; keeping {kept}')
             return False
 
     def _on_speed(self, msg):
@@ -384,6 +403,7 @@ class TwinNode(LifecycleNode):
         self.paused = bool(request.data)
         if not self.paused:
             self._resume_pacing()
+        self._hold_recording()
         return _reply(response, True, f"{'paused' if self.paused else 'running'} at t = "
                       f'{self.twin.time_s:.3f} s', self.get_logger())
 
@@ -508,8 +528,11 @@ class TwinNode(LifecycleNode):
             period = target - self.twin.time_s
         if period > 0.0:
             self._drive_scenario(period)
+        before = self.twin.time_s
         try:
             self.twin.advance_to(target, max_steps=budget)
+            if self.twin.time_s <= before:   # no grid instant due yet: nothing new to say
+                return
             m = self.twin.measurements()
         except SimulationDiverged as exc:  # model blow-up: report, keep the node up
             self.blow_up = str(exc)

@@ -79,6 +79,7 @@ class Pacer:
         self._wall0 = None
         self._sim0 = 0.0
         self._ros0_ns = None
+        self._last_wall = None
 
     @property
     def started(self) -> bool:
@@ -93,18 +94,25 @@ class Pacer:
         """Start (or restart) pacing: simulated time ``sim_s`` corresponds to the steady
         clock's ``wall_s`` and to the ROS clock's ``ros_ns`` (for stamps)."""
         self._wall0, self._sim0 = float(wall_s), float(sim_s)
+        self._last_wall = float(wall_s)     # the simulation stands at sim_s at wall_s
         if ros_ns is not None:
             self._ros0_ns = int(ros_ns)
 
     def retime(self, wall_s: float, sim_s: float, real_time_factor: float | None = None,
                period_s: float | None = None, ros_ns: int | None = None):
-        """Change the rate and/or the period; simulated time and stamps stay continuous."""
+        """Change the rate and/or the period; simulated time and stamps stay continuous.
+
+        The new grid is anchored at the instant the last tick was scheduled for (when the
+        simulation stood at ``sim_s``), not at ``wall_s``: the next tick is then one new
+        period later and samples a new instant (anchored at ``wall_s``, a tick within half
+        a period would find its instant reached already and sample ``sim_s`` again)."""
         ros = ros_ns if ros_ns is not None else self.stamp_ns(sim_s)  # at the old rate
         if real_time_factor is not None:
             self.real_time_factor = float(real_time_factor)
         if period_s is not None:
             self.period_s = float(period_s)
-        self.anchor(wall_s, sim_s, ros)
+        anchor = self._last_wall if self._last_wall is not None else wall_s
+        self.anchor(min(anchor, wall_s), sim_s, ros)
 
     def stamp_ns(self, sim_s: float) -> int | None:
         """ROS time [ns] at which the simulated instant ``sim_s`` happens (None before the
@@ -124,9 +132,12 @@ class Pacer:
         if self._wall0 is None:
             self.anchor(wall_s - self.period_s, sim_s,
                         None if ros_ns is None else ros_ns - int(self.period_s * 1e9))
+        self._last_wall = float(wall_s)
         due = (wall_s - self._wall0) * self.real_time_factor
         target = self._sim0 + round(due / self.sample_s) * self.sample_s
-        return TickPlan(sim_s, target, self.catch_up * self.nominal_steps + 4)
+        # a whole number of samples' steps: a tick that runs out of budget still ends on
+        # the sample grid (the twin's step divides the sample interval)
+        return TickPlan(sim_s, target, self.catch_up * self.nominal_steps)
 
     def settle(self, wall_s: float, sim_s: float, plan: TickPlan,
                ros_ns: int | None = None) -> str | None:

@@ -70,8 +70,8 @@ TWIN_SETTINGS = (
     Setting('stability_period_s', 30.0, 'stability advisory period, 0 = off', 's', 0.0, 3600.0),
     Setting('as_fast_as_possible', False, 'run unthrottled and publish /clock',
             read_only=True),
-    Setting('record_path', '', 'record the run to this .mcap file (simulated log time), '
-            '"" = off', read_only=True),
+    Setting('record_path', '', 'record the run to this .mcap file (simulated log time); '
+            'none (or "") = off', read_only=True),
     Setting('record_chunk_period_s', 0.25, 'longest span one MCAP chunk holds = most a kill '
             'can lose', 's', 0.01, 10.0, read_only=True),
     Setting('autostart', True, 'configure and activate at start-up (false: wait for the '
@@ -92,6 +92,11 @@ CONTROLLER_SETTINGS = (
             0.01, 60.0),
     Setting('torque_filter_s', 1000.0, 'time constant of the reference-torque low-pass', 's',
             0.1, 1e6),
+    Setting('max_surface_torque_Nm', 2.0e5, 'surface torque samples beyond this either way '
+            'are refused as corrupt', 'N m', 1e-3, 1e9, read_only=True),
+    Setting('max_torque_jump_Nm', 5.0e4, 'a surface torque sample this far from the last '
+            'accepted one is taken only when the next sample confirms it', 'N m', 1e-3, 1e9,
+            read_only=True),
 )
 
 RECORDER_SETTINGS = (
