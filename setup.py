@@ -1,6 +1,7 @@
 """ament_python setup for drill_twin (layout after ros2/demos demo_nodes_py)."""
 from glob import glob
 import os
+import subprocess
 
 from setuptools import find_packages, setup
 
@@ -15,14 +16,35 @@ def _requirements(name):
                 if line.split('#')[0].strip()]
 
 
+def _revision_file():
+    """``resource/git_revision``: the git revision of the tree being installed (``+dirty`` if
+    modified), installed to share/drill_twin so that an installed copy (colcon, pip) can
+    say in its recordings which sources it ran; empty when this is not a git checkout."""
+    here = os.path.dirname(os.path.realpath(__file__))
+    path = os.path.join(here, 'resource', 'git_revision')
+
+    def git(*args):
+        return subprocess.run(['git', *args], cwd=here, capture_output=True, text=True,
+                              timeout=10, check=True).stdout.strip()
+    try:
+        dirty = git('status', '--porcelain', '--untracked-files=no')
+        revision = git('rev-parse', 'HEAD') + ('+dirty' if dirty else '')
+    except (OSError, subprocess.SubprocessError):
+        revision = ''
+    with open(path, 'w') as handle:
+        handle.write(revision + '\n')
+    return 'resource/git_revision'
+
+
 setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
-        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name, ['package.xml', _revision_file()]),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/operations', glob('config/operations/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
     package_data={package_name: ['data/*.yaml']},

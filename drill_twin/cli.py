@@ -439,9 +439,11 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog='drill-twin', description=__doc__,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest='command', required=True)
+    p = _Parser(prog='drill-twin', description='The offline tool of drill_twin, the digital '
+                'twin of a drilling system: simulate, analyse stability, run rig operations, '
+                'estimate the bit, record and replay.  `drill-twin COMMAND -h` for each '
+                'command.', epilog='README.md and docs/ describe every command.')
+    sub = p.add_subparsers(dest='command', required=True, title='commands', metavar='COMMAND')
 
     def common(sp):
         sp.add_argument('--config', required=True,

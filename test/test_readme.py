@@ -158,3 +158,35 @@ def test_readme_colcon_workspace(tmp_path):
     share = tmp_path / 'ws' / 'install' / 'drill_twin' / 'share' / 'drill_twin' / 'config'
     assert share.is_dir() and (share / 'benchmark_fem.yaml').resolve().is_file()
     assert shlex.split(lines[-1])[1:4] == ['run', 'drill_twin', 'drill-twin']
+
+
+@pytest.mark.slow
+def test_a_plain_colcon_install_ships_every_configuration_and_scenario(tmp_path):
+    """``colcon build`` without ``--symlink-install`` copies the package: the installed
+    share/drill_twin holds every configuration and scenario file, the installed tool finds
+    them by name (before, config/operations was not installed and ``scenario list`` printed
+    nothing), and it knows the revision it was built from."""
+    pytest.importorskip('colcon_core')
+    src = tmp_path / 'ws' / 'src'
+    src.mkdir(parents=True)
+    subprocess.run(['git', 'clone', '-q', str(ROOT), str(src / 'drill_twin')], check=True)
+    _overlay_working_tree(src / 'drill_twin')
+    env = dict(os.environ, HOME=str(tmp_path), PATH=f'{BIN}{os.pathsep}{os.environ["PATH"]}')
+    script = '\n'.join(['set -e', 'cd ~/ws', 'python3 -m colcon build >/dev/null',
+                        'source install/setup.bash',
+                        'install/drill_twin/lib/drill_twin/drill-twin scenario list',
+                        'install/drill_twin/lib/drill_twin/drill-twin config check --config '
+                        'rig_fem >/dev/null',
+                        'cat install/drill_twin/share/drill_twin/git_revision'])
+    proc = _bash(script, tmp_path, env)
+    assert proc.returncode == 0, (proc.stdout[-3000:], proc.stderr[-3000:])
+    share = tmp_path / 'ws' / 'install' / 'drill_twin' / 'share' / 'drill_twin' / 'config'
+    shipped = {p.name for p in (ROOT / 'config' / 'operations').glob('*.yaml')}
+    assert {p.name for p in (share / 'operations').glob('*.yaml')} == shipped
+    assert not (share / 'operations' / 'connection.yaml').is_symlink()
+    for name in shipped:
+        assert f'{name[:-5]}:' in proc.stdout
+    revision = proc.stdout.strip().splitlines()[-1]
+    head = subprocess.run(['git', 'rev-parse', 'HEAD'], cwd=ROOT, capture_output=True,
+                          text=True, check=True).stdout.strip()
+    assert revision.startswith(head)

@@ -11,6 +11,8 @@ from ..physics.parameters import ParameterError
 
 __all__ = ['add_parsers']
 
+#: statistics window of each run by default [s]
+WINDOW_DEFAULT_S = 100.0
 _BEGIN = '<!-- control table: begin (drill-twin control compare) -->'
 _END = '<!-- control table: end -->'
 
@@ -26,6 +28,21 @@ def _grid(spec: str, name: str):
     return np.linspace(lo, hi, n)
 
 
+def _check_wobs(config: str, wobs_N):
+    """Every WOB of the grid must exceed what the wear flats carry alone (n_b λ W*): below
+    it the bit does not cut (thesis eq. 2.3.6).  Said in kN, before any work."""
+    from ..physics.scenario import load_scenario
+    sc = load_scenario(config)
+    if not sc.is_si:
+        raise ParameterError(f'control compare needs an SI configuration; {config} is not one')
+    friction_N = sc.groups.n_b * sc.groups.lam * sc.scales.force_N
+    low = float(np.min(wobs_N))
+    if low <= friction_N:
+        raise ParameterError(f'--wobs: {low / 1e3:g} kN does not exceed the {friction_N / 1e3:.4g}'
+                             f' kN the wear flats of {config} carry alone (n_b λ W*): the bit '
+                             'does not drill; start the grid above it')
+
+
 def cmd_compare(args) -> int:
     import sys
 
@@ -33,8 +50,12 @@ def cmd_compare(args) -> int:
     from .compare import compare_modes, markdown_table, plot_maps
     speeds = _grid(args.speeds, '--speeds')
     wobs = _grid(args.wobs, '--wobs') * 1e3
-    if not (args.duration_s > args.window_s > 0):
-        raise ParameterError('need --duration-s > --window-s > 0')
+    if not (math.isfinite(args.duration_s) and math.isfinite(args.window_s)
+            and args.duration_s > args.window_s > 0):
+        raise ParameterError(f'need --duration-s > --window-s > 0 s, got --duration-s '
+                             f'{args.duration_s:g} s and --window-s {args.window_s:g} s'
+                             f'{" (the default)" if args.window_s == WINDOW_DEFAULT_S else ""}')
+    _check_wobs(args.config, wobs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     from ..console import kernels_ready
@@ -73,10 +94,11 @@ def add_parsers(sub):
     c.add_argument('--speeds', default='4:24:6', help='surface speeds MIN:MAX:N [rad/s]')
     c.add_argument('--wobs', default='55:85:3', help='weights on bit MIN:MAX:N [kN]')
     c.add_argument('--duration-s', type=float, default=240.0, help='simulated time per point')
-    c.add_argument('--window-s', type=float, default=100.0,
+    c.add_argument('--window-s', type=float, default=WINDOW_DEFAULT_S,
                    help='statistics over the last WINDOW seconds')
     c.add_argument('--workers', type=int, default=None, help='processes (default: cores)')
-    c.add_argument('--out', default='docs/figures', help='directory of the figure and JSON')
+    c.add_argument('--out', default='control_compare', help='directory of the figure and '
+                   'JSON (docs/control.md: --out docs/figures --doc docs/control.md)')
     c.add_argument('--doc', default=None, help='write the table between the markers of '
                    'this Markdown file (docs/control.md)')
     c.set_defaults(func=cmd_compare)

@@ -53,8 +53,32 @@ def package_version() -> str:
 
 
 def git_revision() -> str:
-    """The source tree's git revision (``+dirty`` if modified), or '' when unknown (an
-    installed copy, or a checkout that is not this package's source)."""
+    """The source tree's git revision (``+dirty`` if modified); for an installed copy (colcon,
+    pip), the revision its install recorded in ``share/drill_twin/git_revision``; '' when
+    unknown."""
+    return _checkout_revision() or _installed_revision()
+
+
+def _installed_revision() -> str:
+    import sys
+    candidates = [Path(sys.prefix) / 'share' / 'drill_twin' / 'git_revision',
+                  Path(__file__).resolve().parents[2] / 'resource' / 'git_revision']
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        candidates.insert(0, Path(get_package_share_directory('drill_twin')) / 'git_revision')
+    except Exception:  # noqa: BLE001 - no ament index, or the package is not in it
+        pass
+    for path in candidates:
+        try:
+            text = path.read_text().strip()
+        except OSError:
+            continue
+        if text:
+            return f'{text} (installed)'
+    return ''
+
+
+def _checkout_revision() -> str:
     here = Path(__file__).resolve().parent
 
     def git(*args):

@@ -28,10 +28,13 @@ def _summary(series) -> dict:
 
 def cmd_scenario(args) -> int:
     from .runner import plot_operations, run_timeline
-    from .timeline import load_timeline
+    from .timeline import load_timeline, shipped_scenarios
     if args.action == 'list':
-        from ..physics.scenario import CONFIG_DIR
-        for path in sorted((CONFIG_DIR / 'operations').glob('*.yaml')):
+        shipped = shipped_scenarios()
+        if not shipped:
+            raise ParameterError('no shipped scenario files found (config/operations of the '
+                                 'source tree or share/drill_twin/config/operations)')
+        for path in shipped.values():
             timeline = load_timeline(path)
             print(f'{path.stem:>20}: {timeline.description} ({len(timeline.steps)} steps)')
         return 0
@@ -57,12 +60,11 @@ def cmd_scenario(args) -> int:
         print_summary(out, args.json, width=20)
         return 0
     # figures: every shipped scenario, its figure and numbers (docs/operations.md)
-    from ..physics.scenario import CONFIG_DIR
     out_dir = Path(args.out or 'docs/figures')
     out_dir.mkdir(parents=True, exist_ok=True)
     kernels_ready()
     numbers = {}
-    for path in sorted((CONFIG_DIR / 'operations').glob('*.yaml')):
+    for path in shipped_scenarios().values():
         timeline = load_timeline(path)
         series = run_timeline(timeline)
         png = out_dir / f'operations_{path.stem}.png'

@@ -38,7 +38,7 @@ from pathlib import Path
 
 from ..physics.schema import ConfigError
 
-__all__ = ['Step', 'Timeline', 'load_timeline', 'ACTIONS', 'RPM']
+__all__ = ['shipped_scenarios', 'Step', 'Timeline', 'load_timeline', 'ACTIONS', 'RPM']
 
 RPM = 2.0 * math.pi / 60.0
 
@@ -149,19 +149,28 @@ def _step(where, index, item) -> Step:
     return Step(action, out, index)
 
 
+def shipped_scenarios() -> dict:
+    """``name: path`` of the scenario files shipped with the package: ``operations/`` of
+    every configuration folder (the source tree's ``config/``, or the installed
+    ``share/drill_twin/config``), the first folder holding a name winning."""
+    from ..physics.scenario import config_dirs
+    found = {}
+    for folder in config_dirs():
+        for path in sorted((folder / 'operations').glob('*.yaml')):
+            found.setdefault(path.stem, path)
+    return dict(sorted(found.items()))
+
+
 def load_timeline(path) -> Timeline:
     """Parse and check a scenario file (one-line :class:`ConfigError` on any problem)."""
     path = Path(path)
     if not path.is_file():
-        from ..physics.scenario import CONFIG_DIR
-        for candidate in (CONFIG_DIR / 'operations' / path,
-                          CONFIG_DIR / 'operations' / f'{path}.yaml'):
-            if candidate.is_file():
-                path = candidate
-                break
-        else:
-            names = sorted(p.stem for p in (CONFIG_DIR / 'operations').glob('*.yaml'))
-            raise ConfigError(f'{path}: no such scenario file (shipped: {", ".join(names)})')
+        shipped = shipped_scenarios()
+        name = path.name[:-5] if path.name.endswith('.yaml') else path.name
+        if str(path.parent) != '.' or name not in shipped:
+            raise ConfigError(f'{path}: no such scenario file (shipped: '
+                              f'{", ".join(shipped) or "none found"})')
+        path = shipped[name]
     from ..physics.scenario import read_config
     raw = read_config(path)
     where = str(path)
