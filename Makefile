@@ -7,7 +7,10 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.drill_twin-installed
 REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt setup.py setup.cfg pyproject.toml
 
-.PHONY: venv demo test lint bench bench-smoke clean clean-cache
+# parallel pytest workers (each its own ROS domain; the kernels are compiled once, first)
+TEST_WORKERS ?= 2
+
+.PHONY: venv demo test test-fast lint bench bench-smoke clean clean-cache
 
 venv: $(STAMP)
 
@@ -26,7 +29,11 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m ruff check drill_twin test launch bench
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist worksteal
+
+# the unit tier: numerics in one process, no ROS, no processes, no studies (< 1 min)
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m unit -n $(TEST_WORKERS) --dist worksteal
 
 bench: $(STAMP)
 	$(PY) -m pip install -q -c requirements/constraints.txt -r requirements/bench.txt

@@ -157,6 +157,7 @@ def test_a_torsional_pulse_travelling_up_the_pipe_is_absorbed_by_z_torque(contro
 
 
 @pytest.mark.timeout(900)
+@pytest.mark.slow
 def test_stability_tuned_gains_beat_soft_torque_at_the_benchmark_point():
     """At the benchmark point the tuned gains score below the Soft-Torque tuning (the
     spectral abscissa plus the growth of every unstable root) without raising the

@@ -126,6 +126,7 @@ def test_lookahead_ends_at_the_next_prior_and_composes_the_hold():
         assert ahead.lowest(x, u, 0.0) <= end
 
 
+@pytest.mark.slow
 def test_benchmark_stick_slip_estimate_meets_the_targets(benchmark_stick_slip):
     """Speed drive, developed stick-slip, sensor noise of the issue, 100 Hz: bit speed RMS
     ≤ 5 % of the mean, stick F1 ≥ 0.9 per 0.1 s window, severity within 0.1."""
@@ -140,6 +141,7 @@ def test_benchmark_stick_slip_estimate_meets_the_targets(benchmark_stick_slip):
 
 
 @pytest.mark.parametrize('rate', [100.0, 10.0])
+@pytest.mark.slow
 def test_bit_speed_uncertainty_agrees_with_the_error_against_the_truth(
         benchmark_stick_slip, rate):
     """In developed stick-slip the filter's own variance assumes a slowly moving bit
@@ -166,6 +168,7 @@ def test_benchmark_sticks_are_detected_at_10_hz(benchmark_stick_slip):
 
 
 @pytest.mark.parametrize('scale', [{'bha_mass': 1.1}, {'bha_mass': 0.9}])
+@pytest.mark.slow
 def test_benchmark_estimate_with_a_wrong_bha_inertia(benchmark_stick_slip, scale):
     model = torsional_axis(benchmark_stick_slip.scenario).scaled(**scale)
     est = estimate_run(benchmark_stick_slip, 100.0, torsional=model)
@@ -174,6 +177,7 @@ def test_benchmark_estimate_with_a_wrong_bha_inertia(benchmark_stick_slip, scale
     assert err['severity_max_error'] <= 0.1
 
 
+@pytest.mark.slow
 def test_steady_drilling_estimate_and_no_false_sticks():
     truth = truth_run('benchmark_fem', STEADY, 200.0)
     for rate in (100.0, 10.0):
@@ -183,6 +187,7 @@ def test_steady_drilling_estimate_and_no_false_sticks():
         assert err['severity_max_error'] <= 0.1
 
 
+@pytest.mark.slow
 def test_steady_drilling_is_not_fitted_and_raises_no_mismatch():
     """Steady drilling carries no torsional excitation (the surface torque's fluctuation is
     below the sensor noise): self-tuning a 10 % wrong model must neither retune it nor
@@ -198,6 +203,7 @@ def test_steady_drilling_is_not_fitted_and_raises_no_mismatch():
 
 
 @pytest.mark.timeout(900)   # a few self-tuning fits: ~2 min, more under load
+@pytest.mark.slow
 def test_self_tuning_finds_the_pipe_stiffness_and_repairs_the_estimate(slow_rotary):
     """The estimator's pipe is 10 % too stiff: the fit identifies a stiffness scale of
     1/1.1 and the self-tuned estimate is better than the mismatched one."""
@@ -211,6 +217,7 @@ def test_self_tuning_finds_the_pipe_stiffness_and_repairs_the_estimate(slow_rota
 
 
 @pytest.mark.parametrize('pipe', [0.9, 1.1])
+@pytest.mark.slow
 def test_self_tuning_at_10_hz_finds_the_pipe_near_nyquist(benchmark_stick_slip, pipe):
     """The benchmark's 4.6 Hz stick-slip sampled at 10 Hz: the prediction error is sharply
     multimodal in the pipe's stiffness (docs/estimation.md §5).  One fit of 60 s of
@@ -226,6 +233,7 @@ def test_self_tuning_at_10_hz_finds_the_pipe_near_nyquist(benchmark_stick_slip, 
 
 
 @pytest.mark.timeout(900)   # a few self-tuning fits: ~2 min, more under load
+@pytest.mark.slow
 def test_mismatch_warning_fires_for_a_bha_inertia_50_percent_off(slow_rotary):
     base = torsional_axis(slow_rotary.scenario)
     wrong = estimate_run(slow_rotary, 100.0, torsional=base.scaled(bha_mass=1.5),
@@ -262,6 +270,7 @@ def test_running_range_equals_the_window_statistics():
         assert (low, high) == (w.min(), w.max()) and mean == pytest.approx(w.mean(), abs=1e-12)
 
 
+@pytest.mark.slow
 def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_rotary):
     """A recording's sensor glitches — NaN, ±inf, 1e30 N·m, a speed of −1e9 rad/s, a
     negative hook load — at 60 instants of a stick-slip run: the gate refuses them (each
@@ -315,6 +324,7 @@ def test_surface_gate_holds_the_last_acceptable_value():
     assert not est.started
 
 
+@pytest.mark.slow
 def test_samples_not_taken_are_predicted_through(slow_rotary):
     """A sampler that falls behind its clock (30 % of the periods without a sample):
     predicting over the missed periods keeps the estimate close to the twin's truth;
@@ -363,6 +373,7 @@ def test_sample_pacing_counts_the_periods_the_clock_advanced():
     assert p.periods(500 * ms, 3.0) == 1 and p.skipped == 2
 
 
+@pytest.mark.slow
 def test_innovations_far_beyond_their_size_report_a_mismatch(benchmark_stick_slip):
     """Without self-tuning the fit cannot say that the model is wrong; the innovations
     can: a pipe 10 % too stiff (bit-speed error ~50 %) is flagged throughout developed

@@ -25,6 +25,7 @@ def startup(tmp_path_factory):
     return run_timeline('startup_from_rest', out=path), path
 
 
+@pytest.mark.slow
 def test_start_from_rest_tags_bottom_and_drills_at_the_target(startup):
     series, _ = startup
     t = series['time_s']
@@ -49,6 +50,7 @@ def test_start_from_rest_tags_bottom_and_drills_at_the_target(startup):
     assert series['rate_of_penetration_m_s'][drilling].mean() == pytest.approx(rop_o, rel=0.05)
 
 
+@pytest.mark.slow
 def test_a_scenario_run_is_recorded_and_resimulated_exactly(startup):
     _, path = startup
     rec = open_recording(path)
@@ -58,6 +60,7 @@ def test_a_scenario_run_is_recorded_and_resimulated_exactly(startup):
     assert worst == 0.0 and report['ticks'] > 5000
 
 
+@pytest.mark.slow
 def test_connection_cycle_returns_to_the_same_steady_drilling(tmp_path):
     """Drill, pick up, stop the rotary, wait, restart, tag bottom, slack off, drill: at a
     stable operating point (more string damping than the benchmark) the drilling after the
@@ -103,6 +106,7 @@ def _step_windows(series, last_s):
             for k, (_, label) in enumerate(series['log']) if '. drill' in label]
 
 
+@pytest.mark.slow
 def test_wob_steps_drill_at_the_bit_law_rate_of_each_weight():
     """The shipped WOB steps: the autodriller holds each WOB (inferred from the hook load,
     as on a rig) and the bit drills at the steady rate of eq. 2.4.5 for that WOB; at 40 kN,
@@ -126,6 +130,7 @@ def test_wob_steps_drill_at_the_bit_law_rate_of_each_weight():
             assert measured == pytest.approx(rop, rel=tol), label
 
 
+@pytest.mark.slow
 def test_rpm_ramp_plateaus_turn_the_bit_at_the_rotary_speed():
     """On each plateau of the shipped rpm ramps the mean bit speed is the rotary speed (the
     string cannot keep winding up) and the autodriller keeps the WOB."""
