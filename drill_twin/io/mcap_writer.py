@@ -306,6 +306,18 @@ class McapRecorder:
                             self._end_time or 0)
 
     # --- the end -------------------------------------------------------------------
+    def abandon(self):
+        """Stop after a write failed (a full disk, a revoked permission): close the file
+        without writing more; what the finished chunks hold stays in it, and
+        :func:`drill_twin.io.mcap_reader.recover` reads it back.  Idempotent."""
+        with self._lock:
+            self.closed = True
+            for handle in (self._file, self._chunk_indexes):
+                try:
+                    handle.close()
+                except OSError:
+                    pass
+
     def close(self):
         """Write the last chunk, the indexes and the summary; idempotent."""
         with self._lock:

@@ -147,10 +147,23 @@ class TwinRecorder:
             twin=json.dumps(twin.settings()), settings=json.dumps(settings or {})))
 
         self._held = None
+        #: why recording stopped (a write failed: the disk is full, ...), None while it runs
+        self.failure: str | None = None
 
     @property
     def path(self):
         return self.writer.path
+
+    def _guarded(self, action, *args):
+        """Run a write of the writer; an OSError (ENOSPC, EACCES, EIO) stops the recording
+        — the twin it records goes on — and is kept in :attr:`failure`."""
+        if self.failure is not None:
+            return
+        try:
+            action(*args)
+        except OSError as exc:
+            self.failure = f'{self.path}: {exc.strerror or exc}'
+            self.writer.abandon()
 
     def hold(self):
         """Simulated time is held (the twin paused or inactive): set-points applied from now
@@ -170,8 +183,8 @@ class TwinRecorder:
 
     def _write(self, name, fields, time_s):
         topic = BY_NAME[name]
-        self.writer.write(qualified(name, self.namespace), topic.type, topic.qos, fields,
-                          int(round(time_s * 1e9)))
+        self._guarded(self.writer.write, qualified(name, self.namespace), topic.type,
+                      topic.qos, fields, int(round(time_s * 1e9)))
 
     def measurements(self, m: dict, stamp: dict | None = None, messages=None):
         """One tick: every measurement topic at the tick's simulated time.
@@ -208,11 +221,11 @@ class TwinRecorder:
         self._write('/clock', clock_fields(time_s), time_s)
 
     def flush(self):
-        self.writer.flush()
+        self._guarded(self.writer.flush)
 
     def close(self):
         self.release()
-        self.writer.close()
+        self._guarded(self.writer.close)
 
 
 def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config: str = '',

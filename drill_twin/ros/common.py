@@ -15,7 +15,8 @@ from ..physics.parameters import ParameterError
 from ..runtime.settings import Setting, check
 from .entry import install_quiet_signals, rclpy_took_over
 
-__all__ = ['float_range', 'declare_settings', 'warn_unknown_overrides', 'run_node', 'say']
+__all__ = ['float_range', 'declare_settings', 'warn_unknown_overrides', 'run_node', 'say',
+           'answer_every_transition']
 
 
 def float_range(lo, hi, text) -> ParameterDescriptor:
@@ -68,6 +69,42 @@ def warn_unknown_overrides(node):
         close = difflib.get_close_matches(name, list(node._parameters), n=1)
         hint = f' (did you mean {close[0]}?)' if close else ''
         node.get_logger().warning(f'unknown parameter {name!r} ignored{hint}')
+
+
+def answer_every_transition(node):
+    """Make a lifecycle node answer every ``~/change_state`` request with a result.
+
+    rclpy's handler triggers the requested transition by id; one that does not start from
+    the current state (``ros2 lifecycle set`` of ``configure`` while active, a mistyped
+    id) raises inside the service callback, and the exception ends the process — a
+    wrong call took the rig's twin down.  The guard answers ``success: false`` with one
+    logged line naming the state and the transitions available there, and leaves the
+    node as it was; valid requests go to rclpy's handler unchanged."""
+    service = node._service_change_state
+    handler = service.callback
+
+    def guarded(request, response):
+        machine = node._state_machine
+        state_id, state = machine.current_state
+        available = {t[0]: t[1] for t in machine.available_transitions}
+        wanted = request.transition.id
+        if request.transition.label:
+            label = request.transition.label
+            wanted = next((i for i, name in available.items() if name == label), None)
+        if wanted not in available:
+            asked = request.transition.label or request.transition.id
+            node.get_logger().warning(
+                f'lifecycle transition {asked!r} refused: not available in state {state} '
+                f'(available: {", ".join(f"{n} ({i})" for i, n in available.items())})')
+            response.success = False
+            return response
+        try:
+            return handler(request, response)
+        except RCLError as exc:          # the state changed between the check and here
+            node.get_logger().warning(f'lifecycle transition {wanted} refused: {exc}')
+            response.success = False
+            return response
+    service.callback = guarded
 
 
 def say(node, text: str):

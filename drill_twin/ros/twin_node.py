@@ -61,7 +61,7 @@ from ..runtime.arbitration import SpeedArbiter
 from ..runtime.health import ERROR, WARN, EventWindow, human, worst
 from ..runtime.pacing import Pacer
 from ..runtime.settings import TWIN_SETTINGS
-from .common import declare_settings, run_node, warn_unknown_overrides
+from .common import answer_every_transition, declare_settings, run_node, warn_unknown_overrides
 from .entry import interruptible
 from .messages import message_class, qos_profile, to_message
 
@@ -79,6 +79,10 @@ HEALTH_WINDOW_S = 10.0
 #: values of ``record_path`` that switch recording off ('' cannot be written in a shell:
 #: ``record_path:=''`` reaches ROS as nothing)
 RECORDING_OFF = ('', 'none', 'off')
+#: why the twin refuses use_sim_time: it is the source of simulated time, not a follower
+USE_SIM_TIME_REFUSED = ('use_sim_time cannot be true for the twin: it is the clock (with '
+                        'as_fast_as_possible it publishes /clock for the other nodes); its '
+                        'timers would wait for a /clock nobody publishes')
 
 
 def _reply(response, success: bool, message: str, logger=None):
@@ -104,6 +108,9 @@ class TwinNode(LifecycleNode):
         super().__init__('drill_twin', **kwargs)
         declare_settings(self, TWIN_SETTINGS)
         warn_unknown_overrides(self)
+        answer_every_transition(self)
+        if self.get_parameter('use_sim_time').value:
+            raise ParameterError(USE_SIM_TIME_REFUSED)
         self.twin = None
         self.recorder = None
         self.advisor = None
@@ -112,8 +119,10 @@ class TwinNode(LifecycleNode):
         self.active = False
         self._entities = []        # what a configuration created and cleanup destroys
         self._configurations = 0
+        self._recordings = 0       # recording files opened (a failed configure's included)
         self._failure = None
         self._autostarting = False
+        self._failure_said = False
         self.create_service(Trigger, '~/start_scenario', self._on_start_scenario)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
@@ -122,7 +131,7 @@ class TwinNode(LifecycleNode):
         if self._param('autostart'):   # a failure is the process's one error line
             self._autostarting = True
             if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
-                raise self._failure
+                raise self._failure or ParameterError('configure failed (see the log)')
             self._autostarting = False
             self.trigger_activate()
 
@@ -133,17 +142,18 @@ class TwinNode(LifecycleNode):
         try:
             self._build_twin()
             self._open_recording()
+            self._create_interface()
         except (ParameterError, ParameterException, ValueError, OSError) as exc:
             self._failure = exc
-            self.twin = None
+            self._release()
             if not self._autostarting:
                 self.get_logger().error(f'configure failed: {" ".join(str(exc).split())}')
             return TransitionCallbackReturn.FAILURE
         except Exception as exc:  # a bug: rclpy would swallow it, so keep it to re-raise
-            self._failure, self.twin = exc, None
+            self._failure = exc
+            self._release()
             self.get_logger().error(f'configure failed (internal error): {exc!r}')
             return TransitionCallbackReturn.ERROR
-        self._create_interface()
         self._configurations += 1
         self.get_logger().info(
             f'twin of {self.twin.scenario.model.name} configured, step {self.twin.step_s:.2e} '
@@ -223,9 +233,10 @@ class TwinNode(LifecycleNode):
         path = self._param('record_path')
         if path.strip().lower() in RECORDING_OFF:
             return
-        if self._configurations:
+        if self._recordings:       # after a cleanup or a failed configure: a new file
             path = Path(path)
-            path = path.with_name(f'{path.stem}_{self._configurations + 1}{path.suffix}')
+            path = path.with_name(f'{path.stem}_{self._recordings + 1}{path.suffix}')
+        self._recordings += 1
         config, overrides = self._source
         self.recorder = TwinRecorder(
             str(path), self.twin, config, overrides,
@@ -270,9 +281,13 @@ class TwinNode(LifecycleNode):
         """Undo a configuration: topics and timers destroyed, advisor stopped, recording
         closed (complete), the model dropped."""
         self.active = False
+        if self.recorder is not None:
+            self.recorder.close()
+            self.recorder = None
         if self.twin is None:
             return
-        for entity in self._entities + [self._timer]:
+        timer, self._timer = getattr(self, '_timer', None), None
+        for entity in self._entities + ([timer] if timer is not None else []):
             if isinstance(entity, LifecyclePublisher):
                 self.destroy_lifecycle_publisher(entity)
             elif isinstance(entity, Publisher):
@@ -283,9 +298,6 @@ class TwinNode(LifecycleNode):
                 self.destroy_timer(entity)
         self._entities = []
         self._set_advisory_period(0.0)
-        if self.recorder is not None:
-            self.recorder.close()
-            self.recorder = None
         self.twin = self.driller = None
 
     def _hold_recording(self):
@@ -475,6 +487,9 @@ class TwinNode(LifecycleNode):
 
     # --- parameters: validate on set, apply after ------------------------------------
     def _validate_parameters(self, params):
+        for prm in params:
+            if prm.name == 'use_sim_time' and prm.value:
+                return SetParametersResult(successful=False, reason=USE_SIM_TIME_REFUSED)
         if self.twin is None:  # unconfigured: the values act at the next configure
             return SetParametersResult(successful=True)
         for prm in params:
@@ -609,8 +624,11 @@ class TwinNode(LifecycleNode):
                                                           'delay_overflow', 'controller_timeout')}
         window = f'in the last {HEALTH_WINDOW_S:g} s'
         advisor_down = self.advisor is not None and not self.advisor.alive
+        failure = self._recording_failure()
         return worst(
             (ERROR, f'model stopped: {self.blow_up}') if self.blow_up else None,
+            (ERROR, f'recording stopped: {failure}; the twin keeps running (drill-twin mcap '
+                    'recover reads what was written)') if failure else None,
             (WARN, f"{recent['overrun']} overruns {window}") if recent['overrun'] else None,
             (WARN, f"real time slipped {recent['slip']} times {window}") if recent['slip']
             else None,
@@ -622,6 +640,15 @@ class TwinNode(LifecycleNode):
             if recent['controller_timeout'] else None,
             (WARN, f'stability advisor stopped: {self.advisor.failure}') if advisor_down
             else None), recent
+
+    def _recording_failure(self) -> str | None:
+        """Why the recording stopped (None while it runs, or without one); said once in the
+        log, and in every /diagnostics after."""
+        failure = self.recorder.failure if self.recorder is not None else None
+        if failure and not self._failure_said:
+            self._failure_said = True
+            self.get_logger().error(f'recording stopped: {failure}; the twin keeps running')
+        return failure
 
     def _publish_diagnostics(self):
         m = self._last_measurements
