@@ -1,6 +1,8 @@
 """Shared helpers of the test suite (no expected values live here)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.signal import argrelextrema
 
@@ -35,3 +37,20 @@ def measured_growth_rate(model, groups, root, t_fit, h=1e-3, amplitude=1e-8, cha
     pk = pk[(t[pk] >= t_fit[0]) & (t[pk] <= t_fit[1])]
     assert pk.size >= 6, 'too few oscillation peaks in the fit window'
     return np.polyfit(t[pk], np.log(np.abs(s[pk])), 1)[0]
+
+
+#: unit round-off of IEEE double precision
+EPS = float(np.finfo(float).eps)
+
+
+def roundoff_bound(steps: int, growth_rate: float = 0.0, span: float = 0.0,
+                   terms: float = 1.0) -> float:
+    """Relative difference two mathematically equal integrations can have after ``steps``
+    steps from round-off alone: each step commits at most ``terms`` units of round-off
+    relative to the state's scale (``terms``: a factor for the longest sum the two
+    computations order differently), and what a step commits grows at most as the linear
+    dynamics does, ``exp(growth_rate * span)`` (``growth_rate``: the spectral abscissa
+    [1/t*] of the linearised model over ``span`` [t*]; 0 for a stable one).  Summed
+    linearly over the steps (Wilkinson's bound; the statistical sqrt(steps) is typical,
+    the bound is what any CPU, BLAS or instruction set may give)."""
+    return steps * terms * EPS * math.exp(max(growth_rate, 0.0) * span)

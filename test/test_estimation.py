@@ -48,6 +48,9 @@ def test_filter_riccati_agrees_with_scipy_and_solves_the_equation():
     Q = G @ G.T + 1e-3 * np.eye(n)
     P = filter_riccati(F, H, Q, 0.5)
     reference = solve_discrete_are(F.T, H[:, None], Q, np.array([[0.5]]))
+    # two solvers of an 8x8 Riccati equation (doubling against scipy's Schur method): their
+    # round-off is κ(DARE) ε with κ ~ 1/(1 - ρ(F)²) ~ 20 here, ~1e-14; LAPACK's varies by
+    # CPU at that level; 1e-9 is far above either
     assert np.abs(P - reference).max() < 1e-9 * np.abs(reference).max()
     s = H @ P @ H + 0.5
     residual = F @ P @ F.T - np.outer(F @ P @ H, F @ P @ H) / s + Q - P
@@ -77,6 +80,9 @@ def test_discretisation_matches_the_continuous_model_at_long_periods():
         obs.start(10.0, 3000.0)
         before = obs.x.copy()
         obs.predict()
+        # the equilibrium is a fixed point of the discretised model: what moves is the
+        # round-off of the doubling (log2(period/1e-6) ~ 20 squarings of a 40x40 matrix,
+        # each ~n ε: ~2e-13); 1e-8 covers any BLAS
         assert np.abs(obs.x - before).max() < 1e-8 * np.abs(before).max()
 
 
@@ -121,6 +127,8 @@ def test_lookahead_ends_at_the_next_prior_and_composes_the_hold():
         ahead = obs.lookahead(b, m)
         assert ahead.rows.shape == (m, obs.nx)
         end = ahead.rows[-1] @ x + ahead.input[-1] * u + ahead.const[-1]
+        # m compositions of the hold against one step: round-off of m ≤ 50 products of 40x40
+        # matrices, ~m n ε ~ 5e-13 (BLAS-dependent at that level)
         assert end == pytest.approx(prior[b], rel=1e-9, abs=1e-9 * np.abs(prior).max())
         assert ahead.std[-1] ** 2 == pytest.approx(prior_var, rel=1e-8)
         assert ahead.lowest(x, u, 0.0) <= end
@@ -267,6 +275,7 @@ def test_running_range_equals_the_window_statistics():
     for i, v in enumerate(x):
         low, high, mean = rr.add(v)
         w = x[max(0, i - 36):i + 1]
+        # a running sum of 500 samples of unit size against numpy's pairwise mean: ≤ 500 ε
         assert (low, high) == (w.min(), w.max()) and mean == pytest.approx(w.mean(), abs=1e-12)
 
 
