@@ -178,28 +178,34 @@ class EstimatorNode(Node):
                           fitted_bha_inertia_scale=f'{fit.bha_inertia_scale:.4g}',
                           fitted_pipe_stiffness_scale=f'{fit.pipe_stiffness_scale:.4g}',
                           innovation_power_reduction=f'{fit.improvement:.3g}')
-        if self.watch.silent:
-            level, message = 1, ('surface torque stopped: estimates held' if
-                                 self.watch.last_s is not None else
-                                 'waiting for surface/top_drive_speed and surface/torque')
-        elif self.pacing.recently_behind(time.monotonic()):
-            level, message = 1, ('falling behind the clock: sample periods predicted without '
-                                 'a measurement (see skipped_periods)')
-        elif self.last_rejection is not None and \
-                time.monotonic() - self.last_rejection[0] < _REJECTION_MEMORY_S:
-            level, message = 1, f'rejecting corrupt surface samples ({self.last_rejection[1]})'
-        elif self.est.model_mismatch:
-            level, message = 1, ('model mismatch: the string model does not fit the surface '
-                                 'data (see fitted_* values)')
-        elif self.est.innovation_alarm:
-            level, message = 1, ('model mismatch: the surface torque is far from what the '
-                                 'string model predicts (nis_torsional; is the string, the '
-                                 'sensor noise or the time base what is configured?)')
-        else:
-            level, message = 0, 'estimating'
+        warnings = self._warnings(time.monotonic())
+        level, message = (1, '; '.join(warnings)) if warnings else (0, 'estimating')
         stamp = stamp_fields(ns=self.get_clock().now().nanoseconds)
         self.diag_pub.publish(to_message(DiagnosticArray, diagnostics_fields(
             stamp, level, message, values, name='drill_twin: downhole_estimator')))
+
+    def _warnings(self, now_s):
+        """Every condition to warn about now, most severe first: one WARN never hides
+        another (a corrupt sample while the estimator is behind the clock is both)."""
+        found = []
+        if self.watch.silent:
+            found.append('surface torque stopped: estimates held' if
+                         self.watch.last_s is not None else
+                         'waiting for surface/top_drive_speed and surface/torque')
+        if self.pacing.recently_behind(now_s):
+            found.append('falling behind the clock: sample periods predicted without '
+                         'a measurement (see skipped_periods)')
+        if self.last_rejection is not None and \
+                now_s - self.last_rejection[0] < _REJECTION_MEMORY_S:
+            found.append(f'rejecting corrupt surface samples ({self.last_rejection[1]})')
+        if self.est.model_mismatch:
+            found.append('model mismatch: the string model does not fit the surface '
+                         'data (see fitted_* values)')
+        elif self.est.innovation_alarm:
+            found.append('model mismatch: the surface torque is far from what the '
+                         'string model predicts (nis_torsional; is the string, the '
+                         'sensor noise or the time base what is configured?)')
+        return found
 
     def destroy_node(self):
         self._pool.shutdown(wait=False, cancel_futures=True)
