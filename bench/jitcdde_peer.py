@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.simulation import Simulation
 
 T_DRIVE = 0.5

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / 'bench'))
 
-from drill_twin.physics.scenario import load_scenario  # noqa: E402
+from drill_twin.config.scenario import load_scenario  # noqa: E402
 from drill_twin.physics.simulation import Simulation  # noqa: E402
 
 ROWS = []
@@ -59,8 +59,8 @@ def rtf(overrides, sim_seconds, step=None):
 def _stick_slip_stats(overrides, h, seconds=600.0, stats_from=200.0):
     """Stick fraction, bit-speed max and min, mean ROP of a run of the benchmark
     configuration with ``overrides`` at step ``h`` (t*)."""
-    from drill_twin.cli import run_scenario
-    from drill_twin.physics.statistics import stick_slip_summary
+    from drill_twin.analysis.statistics import stick_slip_summary
+    from drill_twin.runtime.offline import run_scenario
     sc = load_scenario('benchmark_fem', overrides + [f'simulation.duration_s={seconds}',
                                                      f'simulation.time_step={h}'])
     s = stick_slip_summary(run_scenario(sc)[0], stats_from)
@@ -140,7 +140,7 @@ def fem_statistics(overrides, smoke=False, step=None):
     both continued from the reference's state at 800 s over its developed limit cycle to
     1780 s (the transient before it is chaotic: docs/physics.md §5).  Returns the worst
     relative difference and a description of the method."""
-    from drill_twin.cli import output_series
+    from drill_twin.analysis.statistics import output_series
     start, end = (20.0, 40.0) if smoke else (FEM_HANDOFF_S, FEM_STATS_END_S)
     auto = load_scenario('benchmark_fem', overrides + ['simulation.time_step=auto'])
     full = load_scenario('benchmark_fem', overrides + ['simulation.time_step=auto',
@@ -877,7 +877,7 @@ def bench_recording(smoke):
     from drill_twin.io.mcap_reader import open_recording
     from drill_twin.io.resimulation import resimulate
     from drill_twin.io.run_recorder import TwinRecorder, record_run
-    from drill_twin.physics.digital_twin import DigitalTwin
+    from drill_twin.runtime.digital_twin import DigitalTwin
     with tempfile.TemporaryDirectory() as tmp:
         twin = DigitalTwin(load_scenario('benchmark_fem'))
         twin.advance_to(0.01)

@@ -5,10 +5,10 @@ import json
 from pathlib import Path
 
 from .console import print_summary
+from .errors import ParameterError
 from .io.mcap_reader import open_recording, recover
-from .physics.parameters import ParameterError
 
-__all__ = ['add_parsers']
+__all__ = ['register']
 
 
 def cmd_mcap(args) -> int:
@@ -110,7 +110,7 @@ def cmd_replay(args) -> int:
     return 0
 
 
-def add_parsers(sub):
+def register(sub):
     s = sub.add_parser('mcap', help='inspect, recover, export or plot a recording')
     s.add_argument('action', choices=['info', 'recover', 'export', 'plot'])
     s.add_argument('file', help='the .mcap recording')

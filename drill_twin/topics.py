@@ -1,7 +1,7 @@
 """The twin's ROS interface as plain data (imports no ROS).
 
 One table says, for every drill_twin topic, its message type, its QoS and how
-its fields come from :meth:`drill_twin.physics.digital_twin.DigitalTwin.measurements`.
+its fields come from :meth:`drill_twin.runtime.digital_twin.DigitalTwin.measurements`.
 The ROS nodes build their publishers from it, the MCAP recorder its channels
 (schema + ``offered_qos_profiles``), and replay / resimulation decode with it,
 so a topic is described once.

@@ -10,8 +10,9 @@ import pytest
 from mcap.writer import Writer
 
 from drill_twin.cli import main
+from drill_twin.config.lookup import CONFIG_DIR
+from drill_twin.config.scenario import load_scenario
 from drill_twin.io.run_recorder import record_run
-from drill_twin.physics.scenario import CONFIG_DIR, load_scenario
 
 BENCH = (CONFIG_DIR / 'benchmark_fem.yaml').read_text()
 RGD = (CONFIG_DIR / 'rgd_stick_slip.yaml').read_text()
@@ -316,10 +317,79 @@ def test_recover_refuses_a_json_channel(good, tmp_path, capsys):
 
 def test_an_internal_error_keeps_its_traceback(tmp_path):
     """Not bad input: a bug.  Its traceback is shown and the exit code is 1, not 2."""
-    code = ('import drill_twin.cli as c\n'
+    code = ('import drill_twin.cli as c, drill_twin.config.cli as cc\n'
             'def boom(args):\n    raise ValueError("a bug")\n'
-            'c.cmd_params = boom\n'
+            'cc.cmd_params = boom\n'
             'import sys; sys.exit(c.main(["params", "--config", "rgd_stick_slip"]))\n')
     proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 1 and 'Traceback' in proc.stderr and 'a bug' in proc.stderr
+
+
+# --- the bounds of the YAML reader (drill_twin.config.yaml_bounds.parse_yaml) --------------
+
+def test_yaml_bounds_are_where_the_constants_say():
+    from drill_twin.config.yaml_bounds import (
+        MAX_INT_DIGITS,
+        MAX_YAML_DEPTH,
+        MAX_YAML_NODES,
+        parse_yaml,
+    )
+    from drill_twin.errors import ConfigError
+    deep = '[' * MAX_YAML_DEPTH + ']' * MAX_YAML_DEPTH
+    assert parse_yaml(deep, 'x') is not None
+    with pytest.raises(ConfigError, match=f'x: line 1, column {MAX_YAML_DEPTH + 1}: YAML '
+                                          f'nested deeper than {MAX_YAML_DEPTH} levels'):
+        parse_yaml(f'[{deep}]', 'x')
+    most = '[' + ', '.join(['0'] * (MAX_YAML_NODES - 1)) + ']'     # and the list itself
+    assert len(parse_yaml(most, 'x')) == MAX_YAML_NODES - 1
+    with pytest.raises(ConfigError, match=f'more than {MAX_YAML_NODES} YAML nodes'):
+        parse_yaml(most[:-1] + ', 0]', 'x')
+    assert parse_yaml('9' * MAX_INT_DIGITS, 'x') == int('9' * MAX_INT_DIGITS)
+    with pytest.raises(ConfigError, match=f'{MAX_INT_DIGITS + 1} digits'):
+        parse_yaml('1' + '0' * MAX_INT_DIGITS, 'x')
+
+
+def test_aliases_within_the_budget_still_work(tmp_path):
+    """A scenario that repeats a step through an alias (what anchors are for) loads."""
+    from drill_twin.operations.timeline import load_timeline
+    path = tmp_path / 'repeat.yaml'
+    path.write_text('configuration: benchmark_fem\nsteps:\n'
+                    '  - &turn {rotate: {rpm: 60, ramp_s: 5}}\n  - wait: {for_s: 1}\n'
+                    '  - *turn\n')
+    steps = load_timeline(path).steps
+    assert steps[0].params == steps[2].params and len(steps) == 3
+
+
+def _zstd_frame_claiming(size: int) -> bytes:
+    """A zstd frame of 1000 zero bytes whose header says it holds ``size`` bytes (an
+    8-byte frame content size field, single segment)."""
+    import zstandard
+    frame = zstandard.ZstdCompressor(write_content_size=True).compress(bytes(1000))
+    assert frame[4] == 0x60                      # 2-byte content size, single segment
+    return frame[:4] + bytes([0xE0]) + struct.pack('<Q', size) + frame[7:]
+
+
+def test_recover_stops_at_a_chunk_that_claims_a_terabyte(tmp_path, capsys):
+    """The zstd frame of a chunk says 2^40 bytes: zstandard would allocate them
+    (MemoryError); recover stops reading there as at any damaged record."""
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Schema
+
+    from drill_twin.io.mcap_reader import MAX_CHUNK_BYTES
+    builder = RecordBuilder()
+    for record in (Header(profile='ros2', library='test'),
+                   Schema(id=1, name='std_msgs/msg/Float64', encoding='ros2msg',
+                          data=b'float64 data'),
+                   Channel(id=1, topic='/x', message_encoding='cdr', schema_id=1,
+                           metadata={}),
+                   Chunk(compression='zstd', data=_zstd_frame_claiming(2 ** 40),
+                         message_start_time=0, message_end_time=0, uncompressed_crc=0,
+                         uncompressed_size=1000),
+                   DataEnd(data_section_crc=0), Footer(0, 0, 0)):
+        record.write(builder)
+    path = tmp_path / 'claims.mcap'
+    path.write_bytes(b'\x89MCAP0\r\n' + builder.end() + b'\x89MCAP0\r\n')
+    assert main(['mcap', 'recover', str(path), str(tmp_path / 'fixed.mcap'), '--json']) == 0
+    out = capsys.readouterr().out
+    assert '"complete": false' in out and f'more than the {MAX_CHUNK_BYTES}' in out

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.bottom_surface import (
-    S_CUR,
     fill_flat,
     fill_steady,
     new_surface,
     read_surface,
     write_step,
 )
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.physics.layout import READ, SURFACE, BitMotion
 from drill_twin.physics.simulation import Simulation
 
 N_B = 6
@@ -45,8 +45,8 @@ def _swept(h, t_end, nodes=512, offsets=(0.0,), period=PITCH, min_gap=PITCH):
     ts = np.arange(-2.0, t_end + 1e-12, h)
     off = np.array(offsets)
     for t0, t1 in zip(ts[:-1], ts[1:]):
-        write_step(surf, geom, off, t0, t1, u(t0), u(t1), phi(t0), phi(t1), du(t0), du(t1),
-                   dphi(t0), dphi(t1))
+        write_step(surf, geom, off, t0, t1, BitMotion(u(t0), du(t0), phi(t0), dphi(t0)),
+                   BitMotion(u(t1), du(t1), phi(t1), dphi(t1)))
     return surf, geom
 
 
@@ -56,15 +56,15 @@ def test_rock_ahead_is_where_the_preceding_blade_was_one_pitch_earlier(t_now):
     Φ(τ_d) = Φ(τ) - 2π/n_b, and the time τ_d."""
     h = 2e-3
     surf, geom = _swept(h, t_now, nodes=4 * int(PITCH / (5.0 * h)))
-    out = np.zeros(3)
+    out = np.zeros(len(READ))
     read_surface(surf, geom, phi(t_now), 0.0, out)
     t_ref = brentq(lambda t: phi(t) - (phi(t_now) - PITCH), t_now - 2.0, t_now, xtol=1e-15)
     # truncation, not round-off: the Hermite write O(h^4) and the cubic read O(Δξ^4) at
     # h = 2e-3, Δξ = 5h/4 (~1e-11 each, times the derivatives of u; 1e-9 leaves 100x); the
     # kernel runs in numba without fast-math, so its arithmetic is the same on every CPU
-    assert out[0] == pytest.approx(u(t_ref), abs=1e-9)        # O(h^4) + O(Δξ^4)
-    assert out[1] == pytest.approx(t_ref, abs=1e-8)           # the same, divided by dΦ/dτ
-    assert out[2] < 1e-12        # Newton stops at 1e-14 (1 + |Φ|) rad, Φ ~ 20 rad
+    assert out[READ.height] == pytest.approx(u(t_ref), abs=1e-9)   # O(h^4) + O(Δξ^4)
+    assert out[READ.time] == pytest.approx(t_ref, abs=1e-8)   # the same, over dΦ/dτ
+    assert out[READ.residual] < 1e-12    # Newton stops at 1e-14 (1 + |Φ|) rad, Φ ~ 20
 
 
 def test_off_bottom_no_cut_and_tagging_bottom_again():
@@ -74,16 +74,18 @@ def test_off_bottom_no_cut_and_tagging_bottom_again():
     fill_flat(surf, 5.0)
     off = np.zeros(1)
     # one pitch of rotation 1 d* above the rock: nothing changes
-    write_step(surf, geom, off, 0.0, 1.0, 4.0, 4.0, 0.0, PITCH, 0.0, 0.0, PITCH, PITCH)
-    assert np.all(surf[S_CUR] == 5.0)
-    out = np.zeros(3)
+    write_step(surf, geom, off, 0.0, 1.0, BitMotion(4.0, 0.0, 0.0, PITCH),
+               BitMotion(4.0, 0.0, PITCH, PITCH))
+    assert np.all(surf[SURFACE.height] == 5.0)
+    out = np.zeros(len(READ))
     read_surface(surf, geom, 0.3 + PITCH, 0.0, out)
-    assert out[0] == pytest.approx(5.0)                       # depth of cut 4 - 5 < 0
+    assert out[READ.height] == pytest.approx(5.0)               # depth of cut 4 - 5 < 0
     # tag bottom: the bit 0.2 d* into the rock while turning one pitch
-    write_step(surf, geom, off, 1.0, 2.0, 5.2, 5.2, PITCH, 2 * PITCH, 0.0, 0.0, PITCH, PITCH)
-    assert np.allclose(surf[S_CUR], 5.2)
+    write_step(surf, geom, off, 1.0, 2.0, BitMotion(5.2, 0.0, PITCH, PITCH),
+               BitMotion(5.2, 0.0, 2 * PITCH, PITCH))
+    assert np.allclose(surf[SURFACE.height], 5.2)
     read_surface(surf, geom, 2 * PITCH + 0.3, 0.0, out)
-    assert out[0] == pytest.approx(5.2)
+    assert out[READ.height] == pytest.approx(5.2)
 
 
 def test_uneven_blades_each_cut_the_rock_of_the_blade_ahead():
@@ -94,26 +96,27 @@ def test_uneven_blades_each_cut_the_rock_of_the_blade_ahead():
     h = 2e-3
     surf, geom = _swept(h, 6.0, nodes=4096, offsets=angles, period=2 * np.pi,
                         min_gap=gaps.min())
-    out = np.zeros(3)
+    out = np.zeros(len(READ))
     t_now = 6.0
     for b, th in enumerate(angles):
         read_surface(surf, geom, phi(t_now), th, out)
         t_ref = brentq(lambda t, g=gaps[b]: phi(t) - (phi(t_now) - g), t_now - 3.0, t_now,
                        xtol=1e-15)
-        assert out[0] == pytest.approx(u(t_ref), abs=1e-8), b
-        assert out[1] == pytest.approx(t_ref, abs=1e-8), b
+        assert out[READ.height] == pytest.approx(u(t_ref), abs=1e-8), b
+        assert out[READ.time] == pytest.approx(t_ref, abs=1e-8), b
 
 
 def test_steady_surface_gives_the_steady_depth_and_delay():
     surf, geom = new_surface(PITCH, 256, PITCH)
     ups, om = 0.47, 3.74
     fill_steady(surf, geom, [0.0], ups, om, t0=2.5)
-    out = np.zeros(3)
+    out = np.zeros(len(READ))
     read_surface(surf, geom, om * 2.5, 0.0, out)
     # a steady surface is read exactly (linear in ξ: the cubic has no truncation); a dozen
     # operations of round-off, ~1e-15, and the difference 2.5 - t loses 2.5/0.84 = 3x
-    assert ups * 2.5 - out[0] == pytest.approx(ups * PITCH / om, rel=1e-12)  # δ_o
-    assert 2.5 - out[1] == pytest.approx(PITCH / om, rel=1e-12)             # τ_1,0
+    assert ups * 2.5 - out[READ.height] == pytest.approx(ups * PITCH / om, rel=1e-12)  # δ_o
+
+    assert 2.5 - out[READ.time] == pytest.approx(PITCH / om, rel=1e-12)   # τ_1,0
 
 
 @pytest.mark.parametrize('on_bottom', [True, False])

@@ -3,7 +3,7 @@ stiff speed drive) reproduces the embedded Soft-Torque drive of §3.2.
 
 Reference: the embedded model (drive inertia on the top node, k_f and c_f to the
 motor) simulated by the same library; the loop is the one the two nodes run
-(:func:`drill_twin.physics.closed_loop.run_closed_loop`).  Stated tolerance: the
+(:func:`drill_twin.runtime.closed_loop.run_closed_loop`).  Stated tolerance: the
 bit speed trajectories agree within 0.3 rad/s (2.4 % of Ω_o) over the first 60 s
 (the remaining difference comes from the initial perturbation, which is spread
 over 58 vs 59 torsional nodes, not from the controller rate).
@@ -11,11 +11,12 @@ over 58 vs 59 torsional nodes, not from the controller rate).
 import numpy as np
 import pytest
 
-from drill_twin.cli import run_scenario
-from drill_twin.physics.closed_loop import run_closed_loop
-from drill_twin.physics.digital_twin import DigitalTwin
-from drill_twin.physics.scenario import load_scenario
-from drill_twin.physics.soft_torque import SoftTorqueController, soft_torque_si
+from drill_twin.config.scenario import load_scenario
+from drill_twin.control.soft_torque import SoftTorqueController
+from drill_twin.physics.parameters import soft_torque_si
+from drill_twin.runtime.closed_loop import run_closed_loop
+from drill_twin.runtime.digital_twin import DigitalTwin
+from drill_twin.runtime.offline import run_scenario
 
 
 @pytest.fixture(scope='module')

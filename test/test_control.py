@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from helpers import eigenvector_state, measured_growth_rate, roundoff_bound
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.control.tuning import closed_loop_score, tune_gains
-from drill_twin.physics.scenario import load_scenario
 from drill_twin.physics.simulation import Simulation
 from drill_twin.physics.top_drive import (
     mode_gains,

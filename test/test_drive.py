@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 
+from drill_twin.errors import ParameterError
 from drill_twin.physics.models import StringModel, lumped_chain, rgd
-from drill_twin.physics.parameters import BitRockGroups, ParameterError
+from drill_twin.physics.parameters import BitRockGroups
 from drill_twin.physics.simulation import Simulation
 from drill_twin.stability.linearize import linearize_semi_infinite
 from drill_twin.stability.spectrum import rightmost_roots

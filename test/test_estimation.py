@@ -257,8 +257,8 @@ def test_a_bit_off_bottom_is_never_stuck():
     """Stuck is a state of a bit on the rock: a string hanging still from the hook (hook
     load = its buoyed weight, weight on bit 0) is at rest, not stuck; the same string set
     down with 60 kN on bit and not turning is stuck."""
+    from drill_twin.config.scenario import load_scenario
     from drill_twin.estimation.estimator import SurfaceSample
-    from drill_twin.physics.scenario import load_scenario
     sc = load_scenario('benchmark_fem')
     weight = sc.system.buoyed_weight_N()
     for wob, stuck in ((0.0, False), (60e3, True)):
@@ -283,8 +283,8 @@ def test_running_range_equals_the_window_statistics():
 def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_rotary):
     """A recording's sensor glitches — NaN, ±inf, 1e30 N·m, a speed of −1e9 rad/s, a
     negative hook load — at 60 instants of a stick-slip run: the gate refuses them (each
-    counted; NaN reads as "not recorded"), the held values stand in, and the estimate is
-    as close to the twin's truth as from the clean recording."""
+    counted, a recorded NaN too), the held values stand in, and the estimate is as close
+    to the twin's truth as from the clean recording."""
     from drill_twin.estimation.offline import estimate_recording
     samples = sensor_samples(slow_rotary, 100.0, DownholeEstimator(
         slow_rotary.scenario, 100.0).noise)
@@ -301,7 +301,7 @@ def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_r
     series['speed'][spots[2]] = -1e9
     series['hook_load'][spots[3]] = -1.0
     est = estimate_recording(series, slow_rotary.scenario, tune_every_s=0.0)
-    assert est['rejected'] == {'surface_speed_rad_s': 15, 'surface_torque_Nm': 15,
+    assert est['rejected'] == {'surface_speed_rad_s': 15, 'surface_torque_Nm': 30,
                                'hook_load_N': 15}
     err = errors(slow_rotary, est, 150.0, 300.0)
     assert err['stick_windows'] > 50
@@ -310,9 +310,9 @@ def test_corrupt_surface_samples_are_refused_and_do_not_harm_the_estimate(slow_r
 
 
 def test_surface_gate_holds_the_last_acceptable_value():
+    from drill_twin.config.scenario import load_scenario
     from drill_twin.estimation.estimator import SurfaceSample
     from drill_twin.estimation.surface_gate import SurfaceGate, SurfaceLimits
-    from drill_twin.physics.scenario import load_scenario
     gate = SurfaceGate(SurfaceLimits(speed_rad_s=30.0))
     assert gate.sample() is None                         # nothing to start from
     assert gate.offer('surface_speed_rad_s', -2.0) is None     # backspin is possible
@@ -395,3 +395,95 @@ def test_innovations_far_beyond_their_size_report_a_mismatch(benchmark_stick_sli
         wrong = estimate_run(benchmark_stick_slip, rate,
                              torsional=base.scaled(pipe_stiffness=1.1))
         assert wrong['model_mismatch'][wrong['time_s'] >= 800.0].all()
+
+
+# --- drill-twin estimate RECORDING.mcap: what a recording may carry -------------------------
+
+def _surface_recording(path, n=12, torque=3000.0, torque_type='std_msgs/msg/Float64',
+                       hook_every=1):
+    """``n`` samples at 100 Hz of the top-drive speed and surface torque (``torque``: a
+    value, or a function of the sample index) and a hook load every ``hook_every`` one."""
+    from drill_twin.io.mcap_writer import McapRecorder
+    from drill_twin.topics import SENSOR
+    rec = McapRecorder(path)
+    for i in range(n):
+        t = i * 10_000_000
+        value = torque(i) if callable(torque) else torque
+        rec.write('/surface/top_drive_speed', 'std_msgs/msg/Float64', SENSOR, {'data': 12.0}, t)
+        rec.write('/surface/torque', torque_type, SENSOR, {'data': value}, t)
+        if i % hook_every == 0:
+            rec.write('/surface/hook_load', 'std_msgs/msg/Float64', SENSOR,
+                      {'data': 3.8e5}, t)
+    rec.close()
+    return path
+
+
+def test_recorded_nan_samples_are_refused_and_counted_missing_ones_are_not(tmp_path):
+    """A NaN on the torque topic is a corrupt sample (refused, counted); an instant at
+    which the hook load was not recorded just holds the last one."""
+    from drill_twin.estimation.offline import gated_samples, recording_series
+    from drill_twin.io.mcap_reader import open_recording
+    path = _surface_recording(tmp_path / 'r.mcap', n=20,
+                              torque=lambda i: math.nan if i % 4 == 1 else 3000.0,
+                              hook_every=3)
+    series = recording_series(open_recording(path))
+    assert series['recorded']['hook_load'].sum() == 7
+    samples, gate = gated_samples(series)
+    assert len(samples) == 20
+    assert gate.rejected == {'surface_speed_rad_s': 0, 'surface_torque_Nm': 5,
+                             'hook_load_N': 0, 'block_velocity_m_s': 0}
+
+
+def test_all_nan_torque_is_one_line_with_the_count(tmp_path):
+    from drill_twin.config.scenario import load_scenario
+    from drill_twin.errors import ParameterError
+    from drill_twin.estimation.offline import estimate_recording, recording_series
+    from drill_twin.io.mcap_reader import open_recording
+    path = _surface_recording(tmp_path / 'r.mcap', torque=math.nan)
+    with pytest.raises(ParameterError, match='surface_torque_Nm 12'):
+        estimate_recording(recording_series(open_recording(path)),
+                           load_scenario('benchmark_fem'), source=str(path))
+
+
+@pytest.mark.parametrize('type_name, value, words', [
+    ('std_msgs/msg/String', 'abc', "str 'abc'"),
+    ('std_msgs/msg/String', '12.5', "str '12.5'"),      # text is no number, even this
+    ('std_msgs/msg/Bool', True, 'bool True'),
+    ('geometry_msgs/msg/Vector3', None, 'no such field'),
+])
+def test_a_torque_topic_of_another_type_is_a_recording_error(tmp_path, type_name, value,
+                                                            words):
+    from drill_twin.estimation.offline import recording_series
+    from drill_twin.io.mcap_reader import RecordingError, open_recording
+    path = _surface_recording(tmp_path / 'r.mcap', torque=value, torque_type=type_name)
+    with pytest.raises(RecordingError) as err:
+        recording_series(open_recording(path))
+    line = str(err.value)
+    assert str(path) in line and '/surface/torque' in line and type_name in line
+    assert words in line and 'std_msgs/msg/Float64' in line
+
+
+def test_estimate_json_is_valid_json_and_null_where_a_score_is_undefined(tmp_path, capsys):
+    """Steady drilling has no stick window: the stick F1 is undefined (NaN), which JSON
+    cannot hold; --json prints null."""
+    import json
+
+    from drill_twin.cli import main
+    from drill_twin.config.scenario import load_scenario
+    from drill_twin.io.run_recorder import record_run
+    path = tmp_path / 'steady.mcap'
+    record_run(load_scenario('benchmark_fem'), path, 12.0, 100.0, config='benchmark_fem')
+    assert main(['estimate', str(path), '--json', '--self-tuning-period', '0']) == 0
+    out = json.loads(capsys.readouterr().out,
+                     parse_constant=lambda c: pytest.fail(f'{c} in the JSON output'))
+    assert out['errors']['stick_fraction'] == 0.0 and out['errors']['stick_f1'] is None
+
+
+def test_estimate_refuses_a_model_that_is_not_a_finite_element_string(tmp_path, capsys):
+    from drill_twin.cli import main
+    path = _surface_recording(tmp_path / 'r.mcap')
+    for argv in (['--config', 'rgd_stick_slip'],
+                 ['--config', 'benchmark_fem', '--set', 'model.type=rgd']):
+        assert main(['estimate', str(path), *argv]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and 'finite-element string' in lines[0], lines

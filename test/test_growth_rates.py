@@ -12,6 +12,7 @@ import math
 import pytest
 from helpers import measured_growth_rate
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.models import (
     StringModel,
     axial_chain,
@@ -21,7 +22,6 @@ from drill_twin.physics.models import (
     rgd_k,
 )
 from drill_twin.physics.parameters import BitRockGroups
-from drill_twin.physics.scenario import load_scenario
 from drill_twin.stability.spectrum import rightmost_roots
 
 RGD_POINT = dict(n_b=6, lam=5 / 6, beta=0.3, W_o=7.0, omega_o=5.0, psi=50.0)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from drill_twin.physics import interface_law as L
+from drill_twin.physics.layout import ANGULAR, AUX, AXIAL, MODE, SWITCH, BitMotion
 
 BIG = 1e300
 LAM, BETA = 0.8, 0.6
@@ -22,6 +23,13 @@ def _mode(ang, ax, contact):
     return np.array([ang, ax, *contact], np.int64)
 
 
+def _aux(cut, cap, w_req, t_req):
+    aux = np.zeros(len(AUX))
+    aux[AUX.cut], aux[AUX.capacity] = cut, cap
+    aux[AUX.weight_required], aux[AUX.torque_required] = w_req, t_req
+    return aux
+
+
 def reference_forces(contact):
     """W_c = Σ_contact w_b d_b, wear-flat capacity λ Σ_contact w_b (eq. 2.2.4)."""
     cut = sum(w * d for w, d, c in zip(WEIGHTS, DEPTHS, contact) if c)
@@ -30,9 +38,9 @@ def reference_forces(contact):
 
 def reference_wear_flat(ax, cut, cap, w_req):
     """W_f: λ n_contact moving down, 0 moving up, the balance within [0, cap] when stuck."""
-    if ax == L.AX_DOWN:
+    if ax == AXIAL.down:
         return cap
-    if ax == L.AX_UP:
+    if ax == AXIAL.up:
         return 0.0
     return min(max(w_req - cut, 0.0), cap)
 
@@ -44,26 +52,26 @@ def reference_switching(ang, ax, contact, omega, v, w_req, t_req, torsion):
     w_f = reference_wear_flat(ax, cut, cap, w_req)
     g = [BIG] * (3 + len(contact))
     if torsion:
-        if ang == L.ANG_SLIP:
-            g[L.G_ANG] = omega if on_rock else BIG          # off bottom: free either way
+        if ang == ANGULAR.slip:
+            g[SWITCH.angular] = omega if on_rock else BIG          # off bottom: free either way
         else:
-            g[L.G_ANG] = cut + BETA * w_f - t_req           # static threshold
-    if ax == L.AX_DOWN:
-        g[L.G_AX_LOW] = v if on_rock else BIG
-    elif ax == L.AX_UP:
-        g[L.G_AX_LOW] = -v if on_rock else BIG
-    elif ang == L.ANG_STICK:
-        g[L.G_AX_LOW] = w_req                               # only lift-off ends it
+            g[SWITCH.angular] = cut + BETA * w_f - t_req           # static threshold
+    if ax == AXIAL.down:
+        g[SWITCH.axial_low] = v if on_rock else BIG
+    elif ax == AXIAL.up:
+        g[SWITCH.axial_low] = -v if on_rock else BIG
+    elif ang == ANGULAR.stick:
+        g[SWITCH.axial_low] = w_req                               # only lift-off ends it
     else:
-        g[L.G_AX_LOW] = w_req - cut
-        g[L.G_AX_HIGH] = cap - (w_req - cut)
-    if ang == L.ANG_SLIP or ax == L.AX_UP:                  # depths can change
+        g[SWITCH.axial_low] = w_req - cut
+        g[SWITCH.axial_high] = cap - (w_req - cut)
+    if ang == ANGULAR.slip or ax == AXIAL.up:                  # depths can change
         for b, c in enumerate(contact):
-            g[L.G_CONTACT + b] = DEPTHS[b] if c else -DEPTHS[b]
+            g[SWITCH.contact + b] = DEPTHS[b] if c else -DEPTHS[b]
     return g
 
 
-MODES = list(itertools.product((L.ANG_SLIP, L.ANG_STICK), (L.AX_DOWN, L.AX_UP, L.AX_STUCK),
+MODES = list(itertools.product((ANGULAR.slip, ANGULAR.stick), (AXIAL.down, AXIAL.up, AXIAL.stuck),
                                itertools.product((0, 1), repeat=2)))
 
 
@@ -76,9 +84,9 @@ def test_cutting_force_and_wear_flat_capacity(contact):
 @pytest.mark.parametrize('w_req', [-1.0, 0.3, 1.2, 5.0])
 def test_wear_flat_force_in_each_axial_mode(w_req):
     cut, cap = 0.7 * 2.0, LAM * 2.0
-    assert L.sliding_wear_flat(L.AX_DOWN, cap) == cap
-    assert L.sliding_wear_flat(L.AX_UP, cap) == 0.0
-    assert L.stuck_wear_flat(w_req, cut, cap) == reference_wear_flat(L.AX_STUCK, cut, cap,
+    assert L.sliding_wear_flat(AXIAL.down, cap) == cap
+    assert L.sliding_wear_flat(AXIAL.up, cap) == 0.0
+    assert L.stuck_wear_flat(w_req, cut, cap) == reference_wear_flat(AXIAL.stuck, cut, cap,
                                                                      w_req)
     w_f = 0.5
     assert L.bit_weight(cut, w_f) == cut + w_f                      # eq. 2.2.4
@@ -91,8 +99,8 @@ def test_switching_functions_of_every_mode(ang, ax, contact, torsion):
     omega, v, w_req, t_req = 0.37, -0.11, 2.9, 1.7
     cut, cap = reference_forces(contact)
     g = np.empty(3 + len(contact))
-    L.switching(_mode(ang, ax, contact), omega, v, DEPTHS, cut, cap, BETA, w_req, t_req,
-                torsion, g)
+    L.switching(_mode(ang, ax, contact), BitMotion(0.0, v, 0.0, omega), DEPTHS,
+                _aux(cut, cap, w_req, t_req), BETA, torsion, g)
     expected = reference_switching(ang, ax, contact, omega, v, w_req, t_req, torsion)
     np.testing.assert_array_equal(g, expected)
 
@@ -111,18 +119,18 @@ def test_transition_of_every_switching_function_in_every_mode(ang, ax, contact):
             stop_rotation, stop_descent = L.transition(k, mode, w_req)
             expect = list(_mode(ang, ax, contact))
             stops = (False, False)
-            if k >= L.G_CONTACT:
-                b = k - L.G_CONTACT
-                expect[L.MD_CONTACT + b] = 1 - contact[b]
-                if ax == L.AX_STUCK:
-                    expect[L.MD_AX] = L.AX_DOWN if w_req > 0 else L.AX_UP
-            elif k == L.G_ANG:
-                if ang == L.ANG_SLIP:
+            if k >= SWITCH.contact:
+                b = k - SWITCH.contact
+                expect[MODE.contact + b] = 1 - contact[b]
+                if ax == AXIAL.stuck:
+                    expect[MODE.axial] = AXIAL.down if w_req > 0 else AXIAL.up
+            elif k == SWITCH.angular:
+                if ang == ANGULAR.slip:
                     stops = (True, False)
                 else:
-                    expect[L.MD_ANG] = L.ANG_SLIP
-            elif ax == L.AX_STUCK:
-                expect[L.MD_AX] = L.AX_UP if k == L.G_AX_LOW else L.AX_DOWN
+                    expect[MODE.angular] = ANGULAR.slip
+            elif ax == AXIAL.stuck:
+                expect[MODE.axial] = AXIAL.up if k == SWITCH.axial_low else AXIAL.down
             else:
                 stops = (False, True)
             assert (stop_rotation, stop_descent) == stops, (k, w_req)
@@ -134,6 +142,6 @@ def test_no_velocity_threshold_anywhere_in_the_law():
     regularising band around zero)."""
     g = np.empty(5)
     for omega in (1e-300, -1e-300):
-        L.switching(_mode(L.ANG_SLIP, L.AX_DOWN, (1, 1)), omega, 0.5, DEPTHS, 0.0, 1.0, BETA,
-                    0.0, 0.0, True, g)
-        assert np.sign(g[L.G_ANG]) == np.sign(omega)
+        L.switching(_mode(ANGULAR.slip, AXIAL.down, (1, 1)), BitMotion(0.0, 0.5, 0.0, omega),
+                    DEPTHS, _aux(0.0, 1.0, 0.0, 0.0), BETA, True, g)
+        assert np.sign(g[SWITCH.angular]) == np.sign(omega)

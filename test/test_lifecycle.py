@@ -10,8 +10,8 @@ from rclpy.parameter import Parameter  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
+from drill_twin.errors import ParameterError  # noqa: E402
 from drill_twin.io.mcap_reader import open_recording  # noqa: E402
-from drill_twin.physics.parameters import ParameterError  # noqa: E402
 from drill_twin.ros.twin_node import TwinNode  # noqa: E402
 
 

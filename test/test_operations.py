@@ -5,12 +5,13 @@ import math
 import numpy as np
 import pytest
 
+from drill_twin.config.lookup import CONFIG_DIR
+from drill_twin.errors import ConfigError
 from drill_twin.io.mcap_reader import open_recording
 from drill_twin.io.resimulation import resimulate
 from drill_twin.operations.driller import ScenarioError
 from drill_twin.operations.runner import run_timeline
 from drill_twin.operations.timeline import load_timeline
-from drill_twin.physics.scenario import CONFIG_DIR, ConfigError
 
 SHIPPED = sorted(p.stem for p in (CONFIG_DIR / 'operations').glob('*.yaml'))
 
@@ -147,11 +148,39 @@ def test_rpm_ramp_plateaus_turn_the_bit_at_the_rotary_speed():
 
 
 def test_block_actions_need_a_block(tmp_path):
+    """Refused when the file is loaded, before the twin is built or a recording
+    started."""
     path = tmp_path / 'no_block.yaml'
     path.write_text('configuration: benchmark_fem\nstart: drilling\n'
                     'steps:\n  - pick_up: {above_bottom_m: 1}\n')
-    with pytest.raises(ScenarioError, match='needs a block'):
-        run_timeline(path)
+    with pytest.raises(ScenarioError, match='needs a block') as err:
+        run_timeline(path, out=tmp_path / 'run.mcap')
+    assert str(path) in str(err.value) and 'model.axial_top=hoist' in str(err.value)
+    assert not (tmp_path / 'run.mcap').exists()
+
+
+def test_slack_off_beyond_the_string_weight_is_refused_with_the_weight(tmp_path):
+    path = tmp_path / 'heavy.yaml'
+    path.write_text('configuration: benchmark_fem\noverrides: [model.axial_top=hoist]\n'
+                    'start: drilling\nsteps:\n  - slack_off: {wob_kN: 10000}\n')
+    with pytest.raises(ScenarioError, match=r'10000 kN .* weighs in mud \(443.6 kN\)'):
+        load_timeline(path)
+
+
+def test_the_driller_checks_the_weight_of_the_twin_it_drives(tmp_path):
+    """The twin node may hang the string in heavier mud than its configuration's: the
+    driller refuses a slack-off beyond the weight of the twin it has, before a tick."""
+    from drill_twin.config.scenario import load_scenario
+    from drill_twin.operations.driller import Driller
+    from drill_twin.runtime.digital_twin import DigitalTwin
+    path = tmp_path / 'light.yaml'
+    path.write_text('configuration: benchmark_fem\noverrides: [model.axial_top=hoist]\n'
+                    'start: drilling\nsteps:\n  - slack_off: {wob_kN: 400}\n')
+    timeline = load_timeline(path)                      # 443.6 kN in the configured mud
+    twin = DigitalTwin(load_scenario('benchmark_fem', ['model.axial_top=hoist']),
+                       mud_density_kg_m3=2500.0)
+    with pytest.raises(ScenarioError, match=r'400 kN .* \(358.8 kN\)'):
+        Driller(twin, timeline)
 
 
 @pytest.mark.parametrize('text, words', [
@@ -166,6 +195,19 @@ def test_block_actions_need_a_block(tmp_path):
     ('configuration: benchmark_fem\nsteps:\n  - wait: 5\n', 'must map'),
     ('configurations: benchmark_fem\nsteps:\n  - wait: {for_s: 1}\n', 'did you mean'),
     ('steps:\n  - wait: {for_s: 1}\n', 'missing required key configuration'),
+    ('configuration: benchmark_fem\nduration_s: 5\nsteps:\n  - wait: {for_s: 1}\n',
+     'duration_s.*as long as its steps'),
+    ('configuration: benchmark_fem\nstart: drilling\nbit_above_bottom_m: 1\n'
+     'steps:\n  - wait: {for_s: 1}\n', 'start: rest only'),
+    ('configuration: benchmark_fem\nrate_hz: 1000\nsteps:\n  - wait: {for_s: 1.0e+6}\n',
+     r'for_s = 1000000.0 s: must be in \[0, 86400\] s'),
+    ('configuration: benchmark_fem\nrate_hz: 1000\nsteps:\n  - wait: {for_s: 86400}\n'
+     '  - wait: {for_s: 86400}\n', 'at most 1000000 ticks'),
+    ('configuration: benchmark_fem\nsteps:\n  - rotate: {rpm: ' + '9' * 400 + '}\n',
+     '400 digits, more than 19'),
+    ('configuration: [benchmark_fem]\nsteps:\n  - wait: {for_s: 1}\n', 'name of a file'),
+    ('configuration: benchmark_fem\noverrides: [model.axial_tpo=hoist]\n'
+     'steps:\n  - wait: {for_s: 1}\n', 'did you mean model.axial_top'),
 ])
 def test_scenario_file_errors_are_one_line(tmp_path, text, words):
     path = tmp_path / 'bad.yaml'

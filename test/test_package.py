@@ -32,7 +32,7 @@ def test_setup_cfg_script_dirs_and_resource_marker():
 
 
 def test_every_config_file_loads():
-    from drill_twin.physics.scenario import load_scenario
+    from drill_twin.config.scenario import load_scenario
     files = sorted((ROOT / 'config').glob('*.yaml'))
     assert files
     for path in files:

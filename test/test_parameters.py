@@ -9,13 +9,9 @@ import math
 
 import pytest
 
-from drill_twin.physics.parameters import (
-    BitRockGroups,
-    DrillStringSI,
-    ParameterError,
-    soft_torque_tuning,
-)
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.config.scenario import load_scenario
+from drill_twin.errors import ParameterError
+from drill_twin.physics.parameters import BitRockGroups, DrillStringSI, soft_torque_tuning
 
 
 @pytest.fixture(scope='module')
@@ -133,13 +129,13 @@ def test_configuration_doc_is_generated_from_the_schema():
     """docs/configuration.md is `drill-twin config schema` (the schema is the one source)."""
     from pathlib import Path
 
-    from drill_twin.physics.schema import schema_markdown
+    from drill_twin.config.schema import schema_markdown
     doc = Path(__file__).resolve().parents[1] / 'docs' / 'configuration.md'
     assert doc.read_text() == schema_markdown()
 
 
 def test_every_shipped_configuration_validates_and_numbers_are_numbers():
-    from drill_twin.physics.scenario import CONFIG_DIR
+    from drill_twin.config.lookup import CONFIG_DIR
     for path in CONFIG_DIR.glob('*.yaml'):
         sc = load_scenario(path)
         assert sc.raw['units'] in ('si', 'dimensionless')

@@ -12,12 +12,12 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 from mcap_ros2.decoder import DecoderFactory
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.io.mcap_reader import RecordingError, open_recording, recover
 from drill_twin.io.msg_definitions import find_msg_file, schema_text
 from drill_twin.io.resimulation import resimulate
 from drill_twin.io.run_recorder import TwinRecorder, record_run
-from drill_twin.physics.digital_twin import DigitalTwin, aligned_step
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.runtime.digital_twin import DigitalTwin, aligned_step
 from drill_twin.topics import BY_NAME, MEASUREMENTS
 
 RATE_HZ = 100.0

@@ -18,10 +18,10 @@ from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
+from drill_twin.config.scenario import load_scenario  # noqa: E402
 from drill_twin.io.mcap_reader import RecordingError, open_recording, recover  # noqa: E402
 from drill_twin.io.resimulation import resimulate  # noqa: E402
 from drill_twin.io.run_recorder import record_run  # noqa: E402
-from drill_twin.physics.scenario import load_scenario  # noqa: E402
 from drill_twin.ros.player import Player  # noqa: E402
 from drill_twin.ros.recorder_node import RecorderNode  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402

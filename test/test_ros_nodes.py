@@ -10,7 +10,7 @@ from geometry_msgs.msg import WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
-from drill_twin.physics.scenario import load_scenario  # noqa: E402
+from drill_twin.config.scenario import load_scenario  # noqa: E402
 from drill_twin.ros.soft_torque_node import SoftTorqueNode  # noqa: E402
 from drill_twin.ros.twin_node import COMMAND_QOS, SETPOINT_QOS  # noqa: E402
 from drill_twin.stability.spectrum import rightmost_roots  # noqa: E402

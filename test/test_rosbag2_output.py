@@ -16,10 +16,10 @@ import pytest
 import yaml
 from mcap.reader import make_reader
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.io.mcap_reader import open_recording, recover
 from drill_twin.io.msg_definitions import find_msg_file, schema_text
 from drill_twin.io.run_recorder import record_run
-from drill_twin.physics.scenario import load_scenario
 
 
 @pytest.fixture(scope='module')

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from drill_twin.physics.digital_twin import aligned_step
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.config.scenario import load_scenario
 from drill_twin.runtime.advisor import StabilityAdvisor
 from drill_twin.runtime.arbitration import SpeedArbiter, Watchdog
+from drill_twin.runtime.digital_twin import aligned_step
 from drill_twin.runtime.health import ERROR, OK, WARN, EventWindow, human, worst
 from drill_twin.runtime.pacing import Pacer
 from drill_twin.runtime.settings import CONTROLLER_SETTINGS, TWIN_SETTINGS, check
@@ -218,7 +218,7 @@ def test_numba_cache_is_keyed_by_the_jitted_sources(tmp_path):
     assert numba_cache.source_key(src) != key
     law.write_text((numba_cache.PHYSICS_DIR / 'interface_law.py').read_text())
     assert numba_cache.source_key(src) == key
-    stats = src / 'statistics.py'
+    stats = src / 'parameters.py'
     stats.write_text(stats.read_text() + '\n# a comment\n')
     assert numba_cache.source_key(src) == key
     # the Python API around the kernel names numba in its docstrings, compiles nothing

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from drill_twin.config.lookup import CONFIG_DIR
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.parameters import GRAVITY_M_S2
-from drill_twin.physics.scenario import CONFIG_DIR, load_scenario
 from drill_twin.physics.simulation import Simulation
 from drill_twin.physics.statics import element_tension_N, rest_state
 

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.models import StringModel, axial_chain, coupled_chain, lumped_chain
 from drill_twin.physics.parameters import BitRockGroups
-from drill_twin.physics.scenario import load_scenario
 from drill_twin.stability.linearize import LinearDDE, linearize
 from drill_twin.stability.spectrum import (
     DEFAULT_ORDER,

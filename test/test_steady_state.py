@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.models import axial_chain, coupled_chain, rgd, rgd_k
 from drill_twin.physics.parameters import BitRockGroups
-from drill_twin.physics.scenario import load_scenario
 from drill_twin.physics.simulation import Simulation
 
 SETS = [dict(n_b=6, lam=5 / 6, beta=0.3, W_o=7.0, omega_o=5.0, psi=50.0),

@@ -8,11 +8,11 @@ oscillations, angular stick-slip; slower angular growth with Soft-Torque).
 import numpy as np
 import pytest
 
-from drill_twin.cli import run_scenario
+from drill_twin.analysis.statistics import stick_slip_summary
+from drill_twin.config.scenario import load_scenario
 from drill_twin.physics.models import fem_drill_string
-from drill_twin.physics.scenario import load_scenario
 from drill_twin.physics.simulation import Simulation, SimulationDiverged
-from drill_twin.physics.statistics import stick_slip_summary
+from drill_twin.runtime.offline import run_scenario
 
 
 @pytest.fixture(scope='module')
@@ -169,7 +169,7 @@ def test_axial_chain_phase_locking(n, ab, expect):
 def test_unstable_time_step_is_rejected_and_auto_is_stable():
     """A step outside the RK4 region of the FEM's fastest mode is refused (it would chatter
     through thousands of spurious events); ``time_step: auto`` picks 80 % of the limit."""
-    from drill_twin.physics.parameters import ParameterError
+    from drill_twin.errors import ParameterError
     with pytest.raises(ParameterError, match='RK4 stability region'):
         sc = load_scenario('benchmark_fem', ['model.elements=512', 'model.bha_elements=85'])
         Simulation(sc.model, sc.groups, sc.time_step)

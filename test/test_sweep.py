@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drill_twin.physics.parameters import ParameterError
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.config.scenario import load_scenario
+from drill_twin.errors import ParameterError
 from drill_twin.stability.charts import stability_chart
 from drill_twin.sweep import (
     INLINE,
@@ -177,7 +177,7 @@ def test_a_different_sweep_in_the_same_directory_is_refused(tmp_path):
 
 @pytest.mark.parametrize('bad, words', [
     (['--x', 'groups.omega_o:1:x:3'], 'KEY:MIN:MAX:N'),
-    (['--x', 'groups.omega_o:1:4:0'], 'N >= 1'),
+    (['--x', 'groups.omega_o:1:4:0'], 'N = 0'),
     (['--x', 'groups.omega_o:1:4:3', '--kind', 'nonlinear'], '--duration'),
     (['--x', 'groups.omega_o:1:4:3', '--kind', 'nonlinear', '--duration', '10',
       '--stat', 'speed'], 'not a statistic'),

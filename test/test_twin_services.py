@@ -22,6 +22,8 @@ def test_reset_returns_to_the_configured_initial_state(rig):
     rig.publisher('surface_speed_setpoint').publish(Float64(data=15.0))
     assert rig.spin_until(lambda: node.twin.time_s > 1.0
                           and node.twin.surface_speed_setpoint == 15.0, 30)
+    # paused, so that no tick runs between the reset and the look at the new twin
+    assert rig.call(SetBool, '/drill_twin/pause', SetBool.Request(data=True)).success
     result = rig.call(Trigger, '/drill_twin/reset', Trigger.Request())
     assert result.success, result.message
     after = node.twin.measurements()
@@ -29,6 +31,7 @@ def test_reset_returns_to_the_configured_initial_state(rig):
     for key, value in initial.items():
         assert after[key] == value or (isinstance(value, float) and math.isnan(value)
                                        and math.isnan(after[key])), key
+    assert rig.call(SetBool, '/drill_twin/pause', SetBool.Request(data=False)).success
     assert rig.spin_until(lambda: node.twin.time_s > 0.2, 30)   # and runs on from there
 
 

@@ -9,7 +9,7 @@ Re s > 0 (there |e^{-sτ}| ≤ 1, so |s|² ≤ a + b); nothing of the package is
 import numpy as np
 import pytest
 
-from drill_twin.physics.scenario import load_scenario
+from drill_twin.config.scenario import load_scenario
 from drill_twin.stability.spectrum import rightmost_roots
 
 

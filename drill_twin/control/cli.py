@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 
-__all__ = ['add_parsers']
+__all__ = ['register']
 
 #: statistics window of each run by default [s]
 WINDOW_DEFAULT_S = 100.0
@@ -31,7 +31,7 @@ def _grid(spec: str, name: str):
 def _check_wobs(config: str, wobs_N):
     """Every WOB of the grid must exceed what the wear flats carry alone (n_b λ W*): below
     it the bit does not cut (thesis eq. 2.3.6).  Said in kN, before any work."""
-    from ..physics.scenario import load_scenario
+    from ..config.scenario import load_scenario
     sc = load_scenario(config)
     if not sc.is_si:
         raise ParameterError(f'control compare needs an SI configuration; {config} is not one')
@@ -85,7 +85,7 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def add_parsers(sub):
+def register(sub):
     s = sub.add_parser('control', help='top-drive controller modes (docs/control.md)')
     csub = s.add_subparsers(dest='action', required=True)
     c = csub.add_parser('compare', help='severity and spectral-abscissa maps of every mode '

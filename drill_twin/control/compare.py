@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.scenario import read_config, resolve_config, scenario_from_dict
+from ..analysis.statistics import output_series, stick_slip_summary
+from ..config.lookup import resolve_config
+from ..config.scenario import read_config, scenario_from_dict
 from ..physics.simulation import Simulation
-from ..physics.statistics import output_series, stick_slip_summary
 from ..physics.top_drive import CONTROLLERS
 from ..stability.charts import chart_pool
 from ..stability.spectrum import rightmost_roots

@@ -10,10 +10,11 @@ through: the drive's own loop is the stiff PI.
 """
 from __future__ import annotations
 
-from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario, read_config, resolve_config
-from ..physics.soft_torque import SoftTorqueController
+from ..config.lookup import resolve_config
+from ..config.scenario import load_scenario, read_config
+from ..errors import ParameterError
 from ..physics.top_drive import CONTROLLERS, TopDrive
+from .soft_torque import SoftTorqueController
 
 __all__ = ['CONTROLLERS', 'mode_drive', 'external_controller', 'configured_speed']
 

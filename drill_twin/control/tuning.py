@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import copy
 import functools
-import json
 import math
 
 import numpy as np
@@ -28,7 +27,6 @@ from scipy.optimize import minimize
 from ..physics.parameters import BitRockGroups
 from ..physics.top_drive import (
     DriveGains,
-    TopDrive,
     kernel_drive,
     mode_gains,
     pipe_torsional_impedance,
@@ -36,7 +34,7 @@ from ..physics.top_drive import (
 from ..stability.linearize import linearize
 from ..stability.spectrum import rightmost_roots
 
-__all__ = ['closed_loop_score', 'tune_gains', 'stability_tuned_drive', 'with_gains']
+__all__ = ['closed_loop_score', 'tune_gains', 'with_gains']
 
 #: roots examined per evaluation (the unstable ones lie among the rightmost few)
 ROOTS = 24
@@ -105,25 +103,3 @@ def tune_gains(model, groups: BitRockGroups, system, max_evaluations: int = 160)
         'soft_torque_score': start['score'], 'soft_torque_abscissa': start['abscissa'],
         'tuned_score': tuned['score'], 'tuned_abscissa': tuned['abscissa'],
         'evaluations': evaluate.cache_info().misses}
-
-
-@functools.lru_cache(maxsize=16)
-def _tuned(key: str):
-    from ..physics.scenario import scenario_from_dict  # noqa: PLC0415 (physics imports us)
-    cfg = json.loads(key)
-    sc = scenario_from_dict(cfg, 'stability tuning')
-    gains, report = tune_gains(sc.model, sc.groups, sc.system)
-    return gains, report
-
-
-def stability_tuned_drive(cfg: dict, drive: TopDrive) -> TopDrive:
-    """The drive of configuration ``cfg`` with stability-tuned gains (computed once per
-    configuration and operating point in a process)."""
-    start = copy.deepcopy(cfg)
-    d = start.setdefault('drive', {})
-    d['controller'] = 'soft_torque'
-    for key in ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad',
-                'torque_feedback_rad_s_Nm'):
-        d.pop(key, None)
-    gains, _ = _tuned(json.dumps(start, sort_keys=True, default=str))
-    return drive.with_gains(gains)

@@ -4,6 +4,12 @@ The surface topics of an MCAP recording (the twin's, or a rig's recorded under t
 names) are the samples, in log-time order; the sample rate is the recording's (the median
 spacing of ``surface/torque``).  Where the recording also has the twin's bit topics, they
 are the truth and the errors are computed as in :mod:`.study`.
+
+Every value read must be a number in the field the twin writes (``data`` of a
+``std_msgs/msg/Float64`` ...): a topic that carries text or another message type is a
+:class:`~drill_twin.io.mcap_reader.RecordingError` naming the topic, its type and the
+type expected.  A recorded NaN is a sample the gate refuses (and counts); an instant at
+which a channel was not recorded holds its last value without counting.
 """
 from __future__ import annotations
 
@@ -11,7 +17,9 @@ import math
 
 import numpy as np
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
+from ..io.mcap_reader import RecordingError
+from ..topics import BY_NAME
 from .estimator import DownholeEstimator, EstimatorTuning, SensorNoise, estimate_series
 from .study import f1_score, stick_windows
 from .surface_gate import CHANNELS, SurfaceGate
@@ -28,15 +36,31 @@ _TRUTH = {'bit_speed': ('bit/velocity', 'twist.angular.x'),
           'severity': ('bit/stick_slip_severity', 'data')}
 
 
-def _field(msg, path):
+def _field(rec, topic: str, short: str, msg, path: str) -> float:
+    """The number at ``path`` of a decoded message; a missing field or a value that is not
+    a number (text, a list, a nested message) is a :class:`RecordingError`."""
+    value = msg
     for part in path.split('.'):
-        msg = getattr(msg, part)
-    return float(msg)
+        value = getattr(value, part, _NO_FIELD)
+    expected = BY_NAME[short].type
+    number = isinstance(value, (int, float, np.integer, np.floating)) and (
+        not isinstance(value, (bool, np.bool_)) or expected == 'std_msgs/msg/Bool')
+    if not number:
+        got = 'no such field' if value is _NO_FIELD else \
+            f'{type(value).__name__} {repr(value)[:40]}'
+        raise RecordingError(f'{rec.path}: topic {topic} is {rec.topics[topic]}: its {path} '
+                             f'is not a number ({got}); the estimator reads {expected}')
+    return float(value)
+
+
+_NO_FIELD = object()
 
 
 def recording_series(rec) -> dict:
     """Surface (and, if recorded, bit) series of a recording on the instants at which both
-    the top-drive speed and the surface torque were recorded; ``time_s`` is log time."""
+    the top-drive speed and the surface torque were recorded; ``time_s`` is log time.
+    ``recorded`` maps each surface channel to a boolean array: where it was recorded at
+    that instant (its value is NaN where not)."""
     ns = rec.run.get('namespace', '/').rstrip('/')
     wanted = {**_SURFACE, **_TRUTH}
     topics = {f'{ns}/{topic}' for topic, _ in wanted.values()}
@@ -50,35 +74,39 @@ def recording_series(rec) -> dict:
         row = by_time.setdefault(t_ns, {})
         for key, (name, path) in wanted.items():
             if name == short:
-                row[key] = _field(msg, path)
+                row[key] = _field(rec, topic, short, msg, path)
     times = sorted(t for t, row in by_time.items() if 'speed' in row and 'torque' in row)
     if len(times) < 10:
         raise ParameterError(f'{rec.path}: fewer than 10 samples of surface speed and torque')
-    out = {'time_s': np.array(times) * 1e-9}
+    out = {'time_s': np.array(times) * 1e-9, 'recorded': {}}
     for key in wanted:
-        column = [by_time[t].get(key, math.nan) for t in times]
-        if not all(math.isnan(v) for v in column):
-            out[key] = np.array(column)
+        present = [key in by_time[t] for t in times]
+        if any(present):
+            out[key] = np.array([by_time[t].get(key, math.nan) for t in times])
+            if key in _SURFACE:
+                out['recorded'][key] = np.array(present)
     return out
 
 
 def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = None,
                        noise: SensorNoise | None = None, tune_every_s: float = 120.0,
-                       progress=None) -> dict:
+                       progress=None, source: str = 'the recording') -> dict:
     """Run the estimator over the series of :func:`recording_series`; the rate is the
     median sample spacing (samples are taken as one period apart).  ``progress`` as
-    :meth:`DownholeEstimator.run`."""
+    :meth:`DownholeEstimator.run`; ``source`` names the recording in errors."""
     dt = float(np.median(np.diff(series['time_s'])))
     if not dt > 0:
-        raise ParameterError('the recording has no increasing sample times')
+        raise ParameterError(f'{source}: no increasing sample times')
     rate = 1.0 / dt
     tuning = tuning or EstimatorTuning()
     est = DownholeEstimator(scenario, min(max(rate, 1.0), 10000.0), noise or SensorNoise(),
                             tuning)
     samples, gate = gated_samples(series)
     if len(samples) < 2:
-        raise ParameterError('the recording has no acceptable surface speed and torque '
-                             f'sample to start from (refused: {gate.rejected})')
+        refused = ', '.join(f'{k} {n}' for k, n in gate.rejected.items() if n) or 'none'
+        raise ParameterError(f'{source}: no acceptable surface speed and torque '
+                             f'sample to start from (refused samples: {refused}; '
+                             'non-finite or beyond any rig)')
     est.start(samples[0])
     result = estimate_series(est.run(samples[1:], tune_every_s, progress=progress))
     result['time_s'] = series['time_s'][1:]
@@ -90,20 +118,26 @@ def estimate_recording(series: dict, scenario, tuning: EstimatorTuning | None = 
 
 def gated_samples(series: dict) -> tuple[list, SurfaceGate]:
     """The series as samples through a :class:`SurfaceGate` (a refused or missing value
-    holds the channel's last acceptable one), from the first instant with an acceptable
-    speed and torque: the series is trimmed to it in place."""
+    holds the channel's last acceptable one; a recorded NaN is refused and counted), from
+    the first instant with an acceptable speed and torque: the series is trimmed to it in
+    place.  ``series['recorded']`` (optional) says where each surface channel was
+    recorded; without it every value of a channel present is a recorded one."""
     gate = SurfaceGate()
-    nan = np.full(series['time_s'].size, math.nan)
+    size = series['time_s'].size
+    nan, absent = np.full(size, math.nan), np.zeros(size, dtype=bool)
+    recorded = series.get('recorded', {})
     columns = [series.get(key, nan) for key in _SURFACE]      # in the order of CHANNELS
+    taken = [recorded.get(key, absent if key not in series else ~absent) for key in _SURFACE]
     samples = []
-    for row in zip(*columns):
-        for channel, value in zip(CHANNELS, row):
-            if not math.isnan(value):          # NaN: not recorded at this instant
+    for i, row in enumerate(zip(*columns)):
+        for channel, value, mask in zip(CHANNELS, row, taken):
+            if mask[i]:
                 gate.offer(channel, value)
         samples.append(gate.sample())
     first = next((i for i, s in enumerate(samples) if s is not None), len(samples))
-    for key in series:
-        series[key] = series[key][first:]
+    for key, value in series.items():
+        series[key] = {k: v[first:] for k, v in value.items()} if key == 'recorded' else \
+            value[first:]
     return samples[first:], gate
 
 
@@ -117,7 +151,7 @@ def recording_errors(series: dict, est: dict, skip_s: float = 10.0) -> dict | No
     if sel.sum() < 10:
         raise ParameterError(f'the recording is shorter than {skip_s:g} s + 10 samples: '
                              'too short to compare')
-    truth = {k: v[1:][sel] for k, v in series.items() if k != 'time_s'}
+    truth = {k: v[1:][sel] for k, v in series.items() if k not in ('time_s', 'recorded')}
     speed = truth['bit_speed']
     out = {'samples': int(sel.sum()), 'rate_hz': est['rate_hz'],
            'mean_bit_speed_rad_s': float(speed.mean()),

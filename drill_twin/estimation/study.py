@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.digital_twin import aligned_step
-from ..physics.scenario import load_scenario
+from ..config.scenario import load_scenario
 from ..physics.simulation import Simulation
+from ..runtime.digital_twin import aligned_step
 from .estimator import (
     DownholeEstimator,
     EstimatorTuning,

@@ -125,16 +125,26 @@ def innovation_power(axis: AxisModel, speed: np.ndarray, torque: np.ndarray, rat
     ``rate_hz``), after ``skip_s`` of start-up transient."""
     obs = ChainObserver(axis, 1.0 / rate_hz, speed_std, torque_std, torque_rate)
     obs.start(speed[0], torque[0])
-    return _mean_squared_innovation(obs.F, obs.G[:, 0].copy(), obs.G[:, 1].copy(), obs.H,
-                                    obs.gain, obs.cross_gain, obs.D, obs.x.copy(), speed,
-                                    torque, int(skip_s * rate_hz))
+    vectors = np.column_stack([obs.G[:, 0], obs.G[:, 1], obs.gain, obs.cross_gain])
+    samples = np.vstack([speed, torque])
+    return _mean_squared_innovation(obs.F, vectors, obs.H, obs.D, obs.x.copy(), samples,
+                                    int(skip_s * rate_hz))
+
+
+#: columns of the filter's vectors passed to :func:`_mean_squared_innovation`: the input
+#: columns of G (speed, constant), the steady gain and the cross-covariance gain
+INPUT_SPEED, INPUT_CONST, GAIN, CROSS_GAIN = range(4)
+#: rows of its samples: measured top speed [rad/s], surface torque [N m]
+SPEED, TORQUE = range(2)
 
 
 @numba.njit(cache=False, nogil=True)
-def _mean_squared_innovation(F, g_speed, g_const, H, gain, cross_gain, D, x, speed, torque,
-                             skip):
+def _mean_squared_innovation(F, vectors, H, D, x, samples, skip):
     """The steady-state filter's recursion (``ChainObserver.update``) over the samples;
     mean of the squared innovations from sample ``skip`` on."""
+    g_speed, g_const = vectors[:, INPUT_SPEED].copy(), vectors[:, INPUT_CONST].copy()
+    gain, cross_gain = vectors[:, GAIN].copy(), vectors[:, CROSS_GAIN].copy()
+    speed, torque = samples[SPEED], samples[TORQUE]
     total, count = 0.0, 0
     nu = 0.0
     for i in range(1, speed.size):

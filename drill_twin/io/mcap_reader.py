@@ -10,28 +10,49 @@ sees.
 Every failure of a corrupt, truncated or foreign file is raised as
 :class:`RecordingError` with a sentence that says what is wrong and what to
 do (e.g. "run ``drill-twin mcap recover``"), never a library traceback.
+
+Reading is bounded whatever the bytes say: no read asks for more than the file
+holds (a damaged length of 2^63 is a short read, not an allocation), a chunk
+decompresses to at most :data:`MAX_CHUNK_BYTES` (a zstd frame may claim any size),
+and a bag directory's ``metadata.yaml`` is read within the bounds of a
+configuration file.
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import json
+import os
 import struct
 import zlib
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, Header, Message, MessageIndex, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader, get_chunk_data_stream
+from mcap.stream_reader import (
+    CRCValidationError,
+    StreamReader,
+    breakup_chunk,
+    get_chunk_data_stream,
+)
 from mcap.writer import CompressionType, Writer
 
 from .cdr import decoder_for
 from .mcap_writer import PROFILE
-from .rosbag2_metadata import RECORD_NAME, bag_file, bag_metadata, serialized_metadata, topic_entry
+from .rosbag2_metadata import (
+    METADATA_FILE,
+    RECORD_NAME,
+    bag_file,
+    bag_metadata,
+    serialized_metadata,
+    topic_entry,
+)
 
 __all__ = ['RecordingError', 'Recording', 'open_recording', 'recover', 'check_indexes',
            'check_decodable', 'RUN_METADATA']
@@ -48,11 +69,55 @@ try:  # the chunk decompressors raise their own errors
     import zstandard
     _READ_ERRORS += (zstandard.ZstdError,)
 except ImportError:  # pragma: no cover
-    pass
+    zstandard = None
 
 
 class RecordingError(Exception):
     """A recording that cannot be read as a drill_twin/rosbag2 MCAP file (message says why)."""
+
+
+#: largest uncompressed chunk read [bytes].  This package's writer closes a chunk after
+#: 0.25 s of messages (~0.5 MB at 1 kHz), the mcap C++ writer (rosbag2) at 768 KiB; a
+#: damaged size field or a zstd frame that claims gigabytes (a few kB of compressed zeros
+#: can) is refused instead of allocated.
+MAX_CHUNK_BYTES = 64 << 20
+
+
+class _Bounded:
+    """A binary file whose ``read(n)`` asks for at most what is left of it: the mcap
+    library reads a length field's worth of bytes, and a damaged one (2^63) would be an
+    allocation of that size (MemoryError, OverflowError), not a short read."""
+
+    def __init__(self, f, size: int | None = None):
+        self._f = f
+        self._size = os.fstat(f.fileno()).st_size if size is None else size
+
+    def read(self, n=-1):
+        if n is None or n < 0:
+            return self._f.read()
+        return self._f.read(max(0, min(n, self._size - self._f.tell())))
+
+    def seek(self, offset, whence=io.SEEK_SET):
+        return self._f.seek(offset, whence)
+
+    def tell(self):
+        return self._f.tell()
+
+    def seekable(self):
+        return True
+
+
+def _check_chunk_size(chunk, where: str):
+    """Refuse a chunk that would decompress to more than :data:`MAX_CHUNK_BYTES`."""
+    size = chunk.uncompressed_size
+    if chunk.compression == 'zstd' and zstandard is not None and size <= MAX_CHUNK_BYTES:
+        try:   # a zstd frame that states its size is decompressed to it, whatever the chunk says
+            size = max(size, zstandard.frame_content_size(chunk.data))
+        except zstandard.ZstdError as exc:
+            raise RecordingError(f'{where}: damaged zstd data ({exc})') from None
+    if size > MAX_CHUNK_BYTES:
+        raise RecordingError(f'{where}: decompresses to {size} bytes, more than the '
+                             f'{MAX_CHUNK_BYTES} a chunk may hold (damaged)')
 
 
 @dataclass
@@ -88,7 +153,7 @@ class Recording:
         wanted = None if topics is None else set(topics)
         try:
             with open(self.path, 'rb') as f:
-                reader = SeekingReader(f, validate_crcs=True)
+                reader = SeekingReader(_Bounded(f), validate_crcs=True)
                 for _, channel, msg in reader.iter_messages(log_time_order=False):
                     if wanted is None or channel.topic in wanted:
                         yield channel.topic, msg.log_time, msg.data
@@ -103,8 +168,9 @@ class Recording:
             if info is None:
                 raise RecordingError(f'{self.path}: no topic {topic!r} (has: '
                                      f'{", ".join(sorted(self.topics))})')
-            try:
-                self._decoders[topic] = decoder_for(info.type, info.schema_text)
+            try:  # the message parser prints a line of its own before it raises: kept quiet
+                with contextlib.redirect_stderr(io.StringIO()):
+                    self._decoders[topic] = decoder_for(info.type, info.schema_text)
             except Exception as exc:  # noqa: BLE001 - a broken schema in a foreign file
                 raise RecordingError(f'{self.path}: cannot parse the schema of {topic} '
                                      f'({info.type}): {_why(exc)}') from None
@@ -135,6 +201,9 @@ def _record_at(f, offset: int, opcode: int, what: str) -> bytes:
     op, length = struct.unpack('<BQ', head)
     if op != opcode:
         raise RecordingError(f'{what} at byte {offset} is not there (opcode {op:#x})')
+    if length > os.fstat(f.fileno()).st_size - offset - 9:   # not read: it may be 2^64
+        raise RecordingError(f'{what} at byte {offset} claims {length} bytes, past the end '
+                             'of the file')
     body = f.read(length)
     if len(body) != length:
         raise RecordingError(f'{what} at byte {offset} is truncated')
@@ -190,7 +259,8 @@ def check_indexes(path, summary) -> Counter:
             body = _record_at(f, ci.chunk_start_offset, Opcode.CHUNK, where)
             if 9 + len(body) != ci.chunk_length:
                 raise RecordingError(f'{where}: length disagrees with its chunk index')
-            chunk = Chunk.read(ReadDataStream(io.BytesIO(body)))
+            chunk = Chunk.read(ReadDataStream(_Bounded(io.BytesIO(body), len(body))))
+            _check_chunk_size(chunk, where)
             stream, size = get_chunk_data_stream(chunk, validate_crc=True)
             messages = _chunk_messages(stream.read(size))
             times = [t for entries in messages.values() for t, _ in entries]
@@ -202,8 +272,9 @@ def check_indexes(path, summary) -> Counter:
                                      f'{sorted(ci.message_index_offsets)}, it holds '
                                      f'{sorted(messages)}')
             for cid, offset in ci.message_index_offsets.items():
-                index = MessageIndex.read(ReadDataStream(io.BytesIO(
-                    _record_at(f, offset, Opcode.MESSAGE_INDEX, f'{where} message index'))))
+                body = _record_at(f, offset, Opcode.MESSAGE_INDEX, f'{where} message index')
+                index = MessageIndex.read(ReadDataStream(_Bounded(io.BytesIO(body),
+                                                                  len(body))))
                 if index.channel_id != cid or sorted(index.records) != sorted(messages[cid]):
                     raise RecordingError(f'{where}: the message index of channel {cid} '
                                          'disagrees with the messages in the chunk')
@@ -228,7 +299,7 @@ def open_recording(path) -> Recording:
     ``.mcap`` file or a rosbag2 bag directory."""
     path = Path(path)
     if path.is_dir():
-        path = bag_file(path)
+        path = _bag_file(path)
     if not path.is_file():
         raise RecordingError(f'{path}: no such file')
     with open(path, 'rb') as f:
@@ -243,7 +314,7 @@ def open_recording(path) -> Recording:
                              f'{path} FIXED.mcap`')
     try:
         with open(path, 'rb') as f:
-            reader = SeekingReader(f, validate_crcs=True)
+            reader = SeekingReader(_Bounded(f), validate_crcs=True)
             header = reader.get_header()
             summary = reader.get_summary()
             metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()} \
@@ -282,6 +353,9 @@ def open_recording(path) -> Recording:
     counts = {}
     if summary.statistics is not None:
         for cid, n in summary.statistics.channel_message_counts.items():
+            if cid not in channels:
+                raise RecordingError(f'{path}: the statistics count messages of channel '
+                                     f'{cid}, which the summary does not define (damaged)')
             counts[channels[cid].topic] = n
     run = metadata.get(RUN_METADATA)
     if run is not None:
@@ -292,6 +366,28 @@ def open_recording(path) -> Recording:
                 except json.JSONDecodeError:
                     raise RecordingError(f'{path}: run metadata {key!r} is not JSON') from None
     return Recording(path, header.library, channels, metadata, counts)
+
+
+#: what reading a damaged or foreign metadata.yaml raises (it is a mapping of lists)
+_BAG_ERRORS = (yaml.YAMLError, OSError, UnicodeDecodeError, AttributeError, TypeError,
+               ValueError, IndexError, KeyError)
+
+
+def _bag_file(directory: Path) -> Path:
+    """The MCAP file of a bag directory; its ``metadata.yaml`` is read within the bounds
+    of a configuration file (size, nesting, aliases), and a damaged one is a
+    :class:`RecordingError`."""
+    from ..config.yaml_bounds import MAX_YAML_BYTES, check_yaml_bounds
+    meta = directory / METADATA_FILE
+    try:
+        if meta.is_file():
+            if meta.stat().st_size > MAX_YAML_BYTES:
+                raise RecordingError(f'{meta}: larger than {MAX_YAML_BYTES} bytes: not a '
+                                     'rosbag2 metadata file')
+            check_yaml_bounds(meta.read_text())
+        return bag_file(directory)
+    except _BAG_ERRORS as exc:
+        raise RecordingError(f'{meta}: not a rosbag2 metadata file ({_why(exc)})') from None
 
 
 def check_decodable(recording: Recording, topics=None) -> dict:
@@ -336,7 +432,7 @@ def recover(broken, fixed) -> dict:
     complete = False
     try:
         with open(broken, 'rb') as f:
-            for record in StreamReader(f, validate_crcs=True).records:
+            for record in _records_in_order(f):
                 if isinstance(record, Header):
                     header = record
                 elif isinstance(record, Schema):
@@ -346,7 +442,7 @@ def recover(broken, fixed) -> dict:
                 elif isinstance(record, (Message, Metadata)):
                     items.append(record)
             complete = True
-    except _READ_ERRORS as exc:
+    except (*_READ_ERRORS, RecordingError) as exc:
         stopped = _why(exc)
     if header is None:
         raise RecordingError(f'{broken}: no readable MCAP header')
@@ -357,7 +453,7 @@ def recover(broken, fixed) -> dict:
     if complete:  # every record read: is the summary there, and do the indexes agree?
         try:
             with open(broken, 'rb') as f:
-                summary = SeekingReader(f, validate_crcs=True).get_summary()
+                summary = SeekingReader(_Bounded(f), validate_crcs=True).get_summary()
             if summary is None:
                 complete, stopped = False, 'no summary'
             else:
@@ -388,6 +484,18 @@ def recover(broken, fixed) -> dict:
             _recovered_metadata(fixed.name, schemas, channels, items))})
         writer.finish()
     return counts
+
+
+def _records_in_order(f):
+    """The records of an MCAP file in order, a chunk's in its place; a chunk that would
+    decompress to more than :data:`MAX_CHUNK_BYTES` stops the reading as a damaged record
+    does (:class:`RecordingError`)."""
+    for record in StreamReader(_Bounded(f), validate_crcs=True, emit_chunks=True).records:
+        if isinstance(record, Chunk):
+            _check_chunk_size(record, 'a chunk')
+            yield from breakup_chunk(record, validate_crc=True)
+        else:
+            yield record
 
 
 def _recovered_metadata(file_name, schemas, channels, items) -> dict:

@@ -62,7 +62,7 @@ from mcap.records import (
     SummaryOffset,
 )
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 from ..topics import QoS
 from .cdr import encoder_for
 from .msg_definitions import normalize_type, schema_text, type_hash

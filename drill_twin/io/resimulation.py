@@ -12,20 +12,14 @@ Same package version and configuration => every difference is exactly 0.
 """
 from __future__ import annotations
 
-from ..physics.digital_twin import DigitalTwin, SetpointError
-from ..physics.scenario import scenario_from_dict
+from ..config.scenario import scenario_from_dict
+from ..runtime.digital_twin import DigitalTwin, SetpointError
 from ..topics import BY_NAME, MEASUREMENTS, TOPICS, parameter_value
 from .export import flatten
 from .mcap_reader import Recording, RecordingError
 from .run_recorder import qualified
 
 __all__ = ['resimulate']
-
-_APPLY = {'surface_speed_setpoint': 'set_surface_speed',
-          'surface_speed_command': 'set_surface_speed',
-          'hook_load_setpoint': 'set_hook_load',
-          'block_velocity_setpoint': 'set_block_velocity'}
-
 
 def _leaves(fields: dict, prefix=''):
     for key, value in fields.items():
@@ -104,7 +98,7 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
             if not apply_setpoints:
                 continue
             try:
-                getattr(twin, _APPLY[topic_spec.name])(msg.data)
+                twin.apply(topic_spec.name, msg.data)
                 applied += 1
             except SetpointError:
                 rejected += 1

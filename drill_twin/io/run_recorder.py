@@ -1,4 +1,4 @@
-"""Record a :class:`~drill_twin.physics.digital_twin.DigitalTwin` run to MCAP (no ROS needed).
+"""Record a :class:`~drill_twin.runtime.digital_twin.DigitalTwin` run to MCAP (no ROS needed).
 
 Used by the twin node (parameter ``record_path``) and by ``drill-twin simulate
 --out run.mcap``, so both write the same file.  Log time = simulated time
@@ -29,7 +29,7 @@ import subprocess
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 from ..topics import (
     BY_NAME,
     clock_fields,
@@ -235,32 +235,28 @@ def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config
     after the current tick (what a signal handler should set: an exception raised in the
     middle of a write would leave the writer's indexes inconsistent).  The recording is
     closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
-    from ..physics.digital_twin import DigitalTwin, aligned_step
+    from ..runtime.session import TickSession
     if not (rate_hz > 0 and duration_s > 0):
         raise ParameterError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
     # the integration step divides the tick, as in the node: samples every 1/rate_hz exactly
-    twin = DigitalTwin(scenario, time_step_s=aligned_step(
-        scenario.time_step * scenario.time_unit_s, 1.0 / rate_hz))
+    twin = TickSession.aligned_twin(scenario, rate_hz)
     rec = TwinRecorder(path, twin, config, overrides, chunk_period_s=chunk_period_s,
                        settings={'publish_rate_hz': rate_hz, 'source': 'drill-twin simulate'})
+    session = TickSession(twin, rate_hz, rec)
     ticks = int(round(duration_s * rate_hz))
     stopped = False
     try:  # the operator set-points in force, recorded as applied at t = 0
-        for name, value, apply in (
-                ('surface_speed_setpoint', twin.surface_speed_setpoint, twin.set_surface_speed),
-                ('hook_load_setpoint', twin.hook_load_N, twin.set_hook_load)):
-            apply(value)
-            rec.setpoint(name, value)
+        session.apply('surface_speed_setpoint', twin.surface_speed_setpoint)
+        session.apply('hook_load_setpoint', twin.hook_load_N)
         for k in range(1, ticks + 1):
             if stop is not None and stop():
                 stopped = True
                 break
-            twin.advance_to(k / rate_hz)
-            rec.measurements(twin.measurements())
+            session.tick(k / rate_hz)
             if progress is not None and k % 100 == 0:
                 progress(k / ticks)
     finally:
-        rec.close()
+        session.close()
     if progress is not None and not stopped:
         progress(1.0)
     return {'stopped': stopped, 'ticks': ticks, 'messages': rec.writer.messages_written,

@@ -6,9 +6,9 @@ import time
 from pathlib import Path
 
 from ..console import kernels_ready, print_summary
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 
-__all__ = ['add_parsers']
+__all__ = ['register']
 
 
 def _summary(series) -> dict:
@@ -76,7 +76,7 @@ def cmd_scenario(args) -> int:
     return 0
 
 
-def add_parsers(sub):
+def register(sub):
     s = sub.add_parser('scenario', help='operations: run a scenario file (timeline of rig '
                        'operations), list the shipped ones, or draw them all')
     s.add_argument('action', choices=['run', 'list', 'figures'])

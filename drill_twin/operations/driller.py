@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 
 __all__ = ['Autodriller', 'Driller', 'ScenarioError']
 
@@ -69,7 +69,7 @@ class Autodriller:
 
 
 class Driller:
-    """Runs a timeline on a :class:`~drill_twin.physics.digital_twin.DigitalTwin`.
+    """Runs a timeline on a :class:`~drill_twin.runtime.digital_twin.DigitalTwin`.
 
     ``apply(name, value)`` is called for every set-point the driller sets (the node
     records and publishes through it); by default the twin's setter is called.
@@ -80,7 +80,7 @@ class Driller:
         self.block_acceleration = float(block_acceleration_m_s2)
         self._block_target = twin.block_velocity_setpoint if twin.has_block else 0.0
         self.steps = list(timeline.steps)
-        self.apply = apply or self._apply_to_twin
+        self.apply = apply or twin.apply
         self.index = -1
         self.elapsed = 0.0
         self.wob_target = None          # autodriller engaged when not None
@@ -92,14 +92,24 @@ class Driller:
         string = 1.0 / sum(sec.axial_compliance for sec in system.sections)
         k = 1.0 / (1.0 / line + 1.0 / string) if twin.axial_top == 'hoist' else string
         self.autodriller = Autodriller(k)
+        self._check_steps()
         self._next()
 
-    # --- plumbing ----------------------------------------------------------------------
-    def _apply_to_twin(self, name, value):
-        {'surface_speed_setpoint': self.twin.set_surface_speed,
-         'hook_load_setpoint': self.twin.set_hook_load,
-         'block_velocity_setpoint': self.twin.set_block_velocity}[name](value)
+    def _check_steps(self):
+        """Refuse, before the first tick, a step this twin cannot do: one that moves the
+        block on a string without one, a slack-off to more than the string weighs (the
+        twin's mud may differ from the configuration's)."""
+        for step in self.steps:
+            if step.action in ('tag_bottom', 'pick_up') and not self.twin.has_block:
+                raise ScenarioError(f'{step.label}: needs a block (model.axial_top: hoist or '
+                                    'velocity); this string hangs on a constant hook load')
+            wob = step.params.get('wob_N', 0.0) if step.action == 'slack_off' else 0.0
+            if wob > self.twin.string_weight_N:
+                raise ScenarioError(f'{step.label}: the weight on bit {wob / 1e3:g} kN is '
+                                    'more than the string weighs in mud '
+                                    f'({self.twin.string_weight_N / 1e3:.4g} kN)')
 
+    # --- plumbing ----------------------------------------------------------------------
     @property
     def done(self) -> bool:
         return self.index >= len(self.steps)

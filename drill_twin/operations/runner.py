@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.digital_twin import DigitalTwin, aligned_step
-from ..physics.scenario import load_scenario
-from .driller import Driller
+from ..config.scenario import load_scenario
+from ..runtime.digital_twin import DigitalTwin
+from ..runtime.session import TickSession
 from .timeline import load_timeline
 
 __all__ = ['run_timeline', 'plot_operations', 'SERIES']
@@ -30,8 +30,7 @@ def build_twin(timeline) -> DigitalTwin:
     scenario = load_scenario(timeline.configuration, list(timeline.overrides),
                              label=f'{timeline.path} overrides:')
     gap = timeline.bit_above_bottom_m if timeline.start == 'rest' else None
-    step_s = aligned_step(scenario.time_step * scenario.time_unit_s, 1.0 / timeline.rate_hz)
-    return DigitalTwin(scenario, start_above_bottom_m=gap, time_step_s=step_s)
+    return TickSession.aligned_twin(scenario, timeline.rate_hz, start_above_bottom_m=gap)
 
 
 def run_timeline(path_or_timeline, out=None, progress=None, chunk_period_s: float = 0.25):
@@ -51,46 +50,22 @@ def run_timeline(path_or_timeline, out=None, progress=None, chunk_period_s: floa
                                           'scenario': str(timeline.path),
                                           'source': 'drill-twin scenario run'},
                                 chunk_period_s=chunk_period_s)
-    setters = {'surface_speed_setpoint': twin.set_surface_speed,
-               'hook_load_setpoint': twin.set_hook_load,
-               'block_velocity_setpoint': twin.set_block_velocity}
-    last = {}
-
-    def apply(name, value):
-        if last.get(name) == value:
-            return
-        last[name] = value
-        if recorder is not None:
-            recorder.setpoint(name, value)
-        setters[name](value)
-
-    dt = 1.0 / timeline.rate_hz
+    session = TickSession(twin, timeline.rate_hz, recorder)
     rows = {k: [] for k in ('time_s',) + SERIES}
     try:
         if recorder is not None:  # the set-points in force at the start, as applied
-            apply('surface_speed_setpoint', twin.surface_speed_setpoint)
-            if twin.has_block:
-                apply('block_velocity_setpoint', twin.block_velocity_setpoint)
-            else:
-                apply('hook_load_setpoint', twin.hook_load_N)
-        driller = Driller(twin, timeline, apply)
-        k = 0
-        shown = 0
+            session.apply_initial_setpoints()
+        session.start_scenario(timeline)
+        driller, shown = session.driller, 0
         while not driller.done:
             if progress is not None and len(driller.log) > shown:
                 shown = len(driller.log)
                 progress(driller.log[-1][1])
-            driller.tick(dt)
-            k += 1
-            twin.advance_to(k * dt)
-            m = twin.measurements()
-            if recorder is not None:
-                recorder.measurements(m)
+            m = session.tick()
             for key in rows:
                 rows[key].append(m[key])
     finally:
-        if recorder is not None:
-            recorder.close()
+        session.close()
     out_series = {key: np.asarray(v) for key, v in rows.items()}
     out_series['log'] = driller.log
     out_series['twin'] = twin

@@ -28,11 +28,11 @@ Representation
   the smallest blade gap of now) contribute their previous value.  Reads never
   search: the node index is ``floor(X/Δξ)``.
 
-Layout: ``surf`` (6 × N): rows :data:`S_CUR` (height), :data:`S_PREV` (height
-before the latest write), :data:`S_ANGLE` (bit angle Φ at the latest write),
-:data:`S_TIME`, :data:`S_PREV_TIME` (times of the latest and previous writes),
-:data:`S_RES` (Newton residual of the crossing, rad); ``geom = [period, spacing,
-min_gap]``.
+Layout (names of :mod:`drill_twin.physics.layout`): ``surf`` (``len(SURFACE)`` × N): rows
+``SURFACE.height``, ``previous`` (height before the latest write), ``angle`` (bit angle Φ
+at the latest write), ``time``, ``previous_time`` (times of the latest and previous
+writes), ``residual`` (Newton residual of the crossing, rad); ``geom`` (``GEOM``): the
+period, the node spacing and the smallest blade gap [rad].
 """
 from __future__ import annotations
 
@@ -42,12 +42,10 @@ import numpy as np
 
 from .hermite import hermite, hermite_slope
 from .jit import kernel_jit
+from .layout import GEOM, READ, SURFACE
 
 __all__ = ['new_surface', 'fill_steady', 'fill_flat', 'write_step', 'read_surface',
-           'S_CUR', 'S_PREV', 'S_ANGLE', 'S_TIME', 'S_PREV_TIME', 'S_RES', 'nodes_for']
-
-S_CUR, S_PREV, S_ANGLE, S_TIME, S_PREV_TIME, S_RES = 0, 1, 2, 3, 4, 5
-G_PERIOD, G_SPACING, G_MIN_GAP = 0, 1, 2
+           'nodes_for']
 
 
 def nodes_for(period: float, angle_per_step: float, min_gap: float, minimum: int = 64,
@@ -65,9 +63,11 @@ def new_surface(period: float, nodes: int, min_gap: float):
     """Empty surface arrays over one period (rad) with ``nodes`` nodes."""
     if not (period > 0 and nodes >= 8 and 0 < min_gap <= period + 1e-12):
         raise ValueError('surface needs period > 0, >= 8 nodes and 0 < min_gap <= period')
-    surf = np.zeros((6, int(nodes)))
-    surf[S_ANGLE] = -np.inf
-    geom = np.array([float(period), float(period) / nodes, float(min_gap)])
+    surf = np.zeros((len(SURFACE), int(nodes)))
+    surf[SURFACE.angle] = -np.inf
+    geom = np.zeros(len(GEOM))
+    geom[GEOM.period], geom[GEOM.spacing] = float(period), float(period) / nodes
+    geom[GEOM.min_gap] = float(min_gap)
     return surf, geom
 
 
@@ -75,7 +75,7 @@ def fill_steady(surf, geom, offsets, upsilon, omega, t0: float = 0.0):
     """The surface of steady drilling at bit angle Φ = ω τ, U = υ τ, at time ``t0``: every
     node as the blades that passed it last (and, for the previous value, before) left it.
     ``offsets``: blade angles on the period (one 0 for an even bit)."""
-    period, spacing = geom[G_PERIOD], geom[G_SPACING]
+    period, spacing = geom[GEOM.period], geom[GEOM.spacing]
     n = surf.shape[1]
     phi_now = omega * t0
     offs = np.sort(np.mod(np.asarray(offsets, float), period))
@@ -93,22 +93,22 @@ def fill_steady(surf, geom, offsets, upsilon, omega, t0: float = 0.0):
             if cand < best - 1e-12 * period:
                 prev = max(prev, cand)
         t_w, t_p = best / omega, prev / omega
-        surf[S_CUR, j] = upsilon * t_w
-        surf[S_PREV, j] = upsilon * t_p
-        surf[S_ANGLE, j] = best
-        surf[S_TIME, j] = t_w
-        surf[S_PREV_TIME, j] = t_p
-        surf[S_RES, j] = 0.0
+        surf[SURFACE.height, j] = upsilon * t_w
+        surf[SURFACE.previous, j] = upsilon * t_p
+        surf[SURFACE.angle, j] = best
+        surf[SURFACE.time, j] = t_w
+        surf[SURFACE.previous_time, j] = t_p
+        surf[SURFACE.residual, j] = 0.0
 
 
 def fill_flat(surf, depth: float, time: float = 0.0):
     """A flat bottom at axial position ``depth`` (d*), never cut by these blades."""
-    surf[S_CUR] = depth
-    surf[S_PREV] = depth
-    surf[S_ANGLE] = -np.inf
-    surf[S_TIME] = time
-    surf[S_PREV_TIME] = time
-    surf[S_RES] = 0.0
+    surf[SURFACE.height] = depth
+    surf[SURFACE.previous] = depth
+    surf[SURFACE.angle] = -np.inf
+    surf[SURFACE.time] = time
+    surf[SURFACE.previous_time] = time
+    surf[SURFACE.residual] = 0.0
 
 
 @kernel_jit
@@ -137,13 +137,15 @@ def _crossing(p0, p1, dp0, dp1, h, target):
 
 
 @kernel_jit
-def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
-    """Let every blade write the nodes it swept while the bit went from angle ``p0`` (time
-    ``t0``, position ``u0``, velocities ``du0, dp0``) to ``p1`` (``t1`` ...).  Returns the
-    number of nodes written."""
+def write_step(surf, geom, offsets, t0, t1, b0, b1):
+    """Let every blade write the nodes it swept while the bit moved from ``b0`` (a
+    :class:`~drill_twin.physics.layout.BitMotion`, at time ``t0``) to ``b1`` (at ``t1``).
+    Returns the number of nodes written."""
+    u0, u1, p0, p1 = b0.position, b1.position, b0.angle, b1.angle
+    du0, du1, dp0, dp1 = b0.velocity, b1.velocity, b0.speed, b1.speed
     if not p1 > p0:
         return 0
-    spacing = geom[G_SPACING]
+    spacing = geom[GEOM.spacing]
     n = surf.shape[1]
     h = t1 - t0
     written = 0
@@ -156,13 +158,13 @@ def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
             s, res = _crossing(p0, p1, dp0, dp1, h, target)
             u = hermite(u0, u1, du0, du1, h, s)
             j = jj % n
-            surf[S_PREV, j] = surf[S_CUR, j]
-            surf[S_PREV_TIME, j] = surf[S_TIME, j]
-            if u > surf[S_CUR, j]:
-                surf[S_CUR, j] = u
-            surf[S_ANGLE, j] = target
-            surf[S_TIME, j] = t0 + s * h
-            surf[S_RES, j] = res
+            surf[SURFACE.previous, j] = surf[SURFACE.height, j]
+            surf[SURFACE.previous_time, j] = surf[SURFACE.time, j]
+            if u > surf[SURFACE.height, j]:
+                surf[SURFACE.height, j] = u
+            surf[SURFACE.angle, j] = target
+            surf[SURFACE.time, j] = t0 + s * h
+            surf[SURFACE.residual, j] = res
             written += 1
     return written
 
@@ -171,12 +173,12 @@ def write_step(surf, geom, offsets, t0, t1, u0, u1, p0, p1, du0, du1, dp0, dp1):
 def read_surface(surf, geom, phi, offset, out):
     """The rock ahead of the blade at ``offset`` when the bit angle is ``phi``.
 
-    Writes ``out[0]`` = surface height S (d*), ``out[1]`` = time at which the preceding
-    blade left it (so the delay is τ - out[1]), ``out[2]`` = largest |residual| of the
-    crossings used (rad).
+    Writes into ``out`` (:data:`~drill_twin.physics.layout.READ`) the surface height S
+    (d*), the time at which the preceding blade left it (so the delay is τ minus it) and
+    the largest |residual| of the crossings used (rad).
     """
-    spacing = geom[G_SPACING]
-    half_gap = 0.5 * geom[G_MIN_GAP]
+    spacing = geom[GEOM.spacing]
+    half_gap = 0.5 * geom[GEOM.min_gap]
     n = surf.shape[1]
     x = phi + offset
     q = x / spacing
@@ -196,15 +198,15 @@ def read_surface(surf, geom, phi, offset, out):
         w = w0 if k == 0 else (w1 if k == 1 else (w2 if k == 2 else w3))
         # written by this blade on this pass (the bit angle of the write is within half a
         # blade gap of now): the rock before it is what this blade cuts
-        if surf[S_ANGLE, j] > phi - half_gap:
-            height += w * surf[S_PREV, j]
-            time += w * surf[S_PREV_TIME, j]
+        if surf[SURFACE.angle, j] > phi - half_gap:
+            height += w * surf[SURFACE.previous, j]
+            time += w * surf[SURFACE.previous_time, j]
         else:
-            height += w * surf[S_CUR, j]
-            time += w * surf[S_TIME, j]
-        r = abs(surf[S_RES, j])
+            height += w * surf[SURFACE.height, j]
+            time += w * surf[SURFACE.time, j]
+        r = abs(surf[SURFACE.residual, j])
         if r > res:
             res = r
-    out[0] = height
-    out[1] = time
-    out[2] = res
+    out[READ.height] = height
+    out[READ.time] = time
+    out[READ.residual] = res

@@ -35,6 +35,8 @@ switching function of :func:`switching` is >= 0:
 * each blade: its depth of cut keeps its sign (contact or not), checked while the
   bit slips angularly or moves up (a bit stuck both ways cannot change depth).
 
+Modes, switching functions and the aux values they read are indexed by the names of
+:mod:`drill_twin.physics.layout` (``MODE``, ``ANGULAR``, ``AXIAL``, ``SWITCH``, ``AUX``).
 When one becomes negative the step is cut at the crossing and
 :func:`transition` applies the rule of that function; the kernel then settles
 the mode consistent with the state (:func:`drill_twin.physics.kernel`).  No velocity
@@ -43,18 +45,12 @@ threshold is involved anywhere.
 from __future__ import annotations
 
 from .jit import kernel_jit
+from .layout import ANGULAR, AUX, AXIAL, MODE, SWITCH
 
-__all__ = ['ANG_SLIP', 'ANG_STICK', 'AX_DOWN', 'AX_UP', 'AX_STUCK', 'MD_ANG', 'MD_AX',
-           'MD_CONTACT', 'G_ANG', 'G_AX_LOW', 'G_AX_HIGH', 'G_CONTACT', 'contact_forces',
-           'sliding_wear_flat', 'stuck_wear_flat', 'bit_weight', 'bit_torque', 'switching',
-           'transition']
+__all__ = ['contact_forces', 'sliding_wear_flat', 'stuck_wear_flat', 'bit_weight',
+           'bit_torque', 'switching', 'transition']
 
-# mode vector: angular mode, axial mode, then one contact flag per blade group
-MD_ANG, MD_AX, MD_CONTACT = 0, 1, 2
-ANG_SLIP, ANG_STICK = 0, 1
-AX_DOWN, AX_UP, AX_STUCK = 0, 1, 2
-# switching functions: angular, axial (two bounds), then one per blade group
-G_ANG, G_AX_LOW, G_AX_HIGH, G_CONTACT = 0, 1, 2, 3
+#: a switching function that does not apply in the mode: never the smallest
 _BIG = 1e300
 
 
@@ -65,7 +61,7 @@ def contact_forces(depths, weights, mode, lam):
     cut = 0.0
     blades = 0.0
     for b in range(depths.size):
-        if mode[MD_CONTACT + b] == 1:
+        if mode[MODE.contact + b] == 1:
             cut += weights[b] * depths[b]
             blades += weights[b]
     return cut, lam * blades
@@ -74,7 +70,7 @@ def contact_forces(depths, weights, mode, lam):
 @kernel_jit(inline='always')
 def sliding_wear_flat(ax_mode, capacity):
     """W_f while the bit slides axially: the whole capacity moving down, none moving up."""
-    return capacity if ax_mode == AX_DOWN else 0.0
+    return capacity if ax_mode == AXIAL.down else 0.0
 
 
 @kernel_jit(inline='always')
@@ -96,42 +92,46 @@ def bit_torque(cut, wear_flat, beta):
 
 
 @kernel_jit
-def switching(mode, omega_bit, v_bit, depths, cut, capacity, beta, w_required, t_required,
-              torsion, g):
-    """Fill ``g`` (size 3 + blade groups) with the switching functions of the mode (the
-    mode holds while all are >= 0).  ``torsion``: the model has a torsional chain."""
+def switching(mode, bit, depths, aux, beta, torsion, g):
+    """Fill ``g`` (size 3 + blade groups, :data:`SWITCH`) with the switching functions of
+    the mode (the mode holds while all are >= 0).  ``bit``: the bit's
+    :class:`~drill_twin.physics.layout.BitMotion`; ``aux``: the cutting force, capacity and
+    required reactions of the right-hand side (:data:`AUX`); ``torsion``: the model has a
+    torsional chain."""
     for k in range(g.size):
         g[k] = _BIG
-    ang = mode[MD_ANG]
-    ax = mode[MD_AX]
+    ang = mode[MODE.angular]
+    ax = mode[MODE.axial]
+    cut, capacity = aux[AUX.cut], aux[AUX.capacity]
+    w_required = aux[AUX.weight_required]
     on_rock = False
     for b in range(depths.size):
-        if mode[MD_CONTACT + b] == 1:
+        if mode[MODE.contact + b] == 1:
             on_rock = True
-    if ax == AX_STUCK:
+    if ax == AXIAL.stuck:
         w_f = stuck_wear_flat(w_required, cut, capacity)
     else:
         w_f = sliding_wear_flat(ax, capacity)
     if torsion:
-        if ang == ANG_SLIP:
+        if ang == ANGULAR.slip:
             if on_rock:
-                g[G_ANG] = omega_bit
+                g[SWITCH.angular] = bit.speed
         else:
-            g[G_ANG] = bit_torque(cut, w_f, beta) - t_required
-    if ax == AX_DOWN:
+            g[SWITCH.angular] = bit_torque(cut, w_f, beta) - aux[AUX.torque_required]
+    if ax == AXIAL.down:
         if on_rock:
-            g[G_AX_LOW] = v_bit
-    elif ax == AX_UP:
+            g[SWITCH.axial_low] = bit.velocity
+    elif ax == AXIAL.up:
         if on_rock:
-            g[G_AX_LOW] = -v_bit
-    elif ang == ANG_STICK:
-        g[G_AX_LOW] = w_required
+            g[SWITCH.axial_low] = -bit.velocity
+    elif ang == ANGULAR.stick:
+        g[SWITCH.axial_low] = w_required
     else:
-        g[G_AX_LOW] = w_required - cut
-        g[G_AX_HIGH] = capacity - (w_required - cut)
-    if ang == ANG_SLIP or ax == AX_UP:
+        g[SWITCH.axial_low] = w_required - cut
+        g[SWITCH.axial_high] = capacity - (w_required - cut)
+    if ang == ANGULAR.slip or ax == AXIAL.up:
         for b in range(depths.size):
-            g[G_CONTACT + b] = depths[b] if mode[MD_CONTACT + b] == 1 else -depths[b]
+            g[SWITCH.contact + b] = depths[b] if mode[MODE.contact + b] == 1 else -depths[b]
 
 
 @kernel_jit
@@ -142,18 +142,18 @@ def transition(k, mode, w_required):
     that crossed zero is to be set exactly to zero by the caller (the crossing is
     located to round-off; the velocity is then exactly 0, not a small number).
     """
-    if k >= G_CONTACT:
-        b = k - G_CONTACT
-        mode[MD_CONTACT + b] = 1 - mode[MD_CONTACT + b]
-        if mode[MD_AX] == AX_STUCK:   # a stuck bit that gains or loses a blade re-slides
-            mode[MD_AX] = AX_DOWN if w_required > 0.0 else AX_UP
+    if k >= SWITCH.contact:
+        b = k - SWITCH.contact
+        mode[MODE.contact + b] = 1 - mode[MODE.contact + b]
+        if mode[MODE.axial] == AXIAL.stuck:   # a stuck bit that gains or loses a blade
+            mode[MODE.axial] = AXIAL.down if w_required > 0.0 else AXIAL.up  # re-slides
         return False, False
-    if k == G_ANG:
-        if mode[MD_ANG] == ANG_SLIP:
+    if k == SWITCH.angular:
+        if mode[MODE.angular] == ANGULAR.slip:
             return True, False          # the bit stops turning: settle decides stick
-        mode[MD_ANG] = ANG_SLIP         # the string torque breaks the bit free
+        mode[MODE.angular] = ANGULAR.slip   # the string torque breaks the bit free
         return False, False
-    if mode[MD_AX] == AX_STUCK:
-        mode[MD_AX] = AX_UP if k == G_AX_LOW else AX_DOWN
+    if mode[MODE.axial] == AXIAL.stuck:
+        mode[MODE.axial] = AXIAL.up if k == SWITCH.axial_low else AXIAL.down
         return False, False
     return False, True                  # the bit stops moving axially: settle decides

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .parameters import DrillStringSI, ParameterError, soft_torque_tuning
+from ..errors import ParameterError
+from .parameters import DrillStringSI, soft_torque_tuning
 from .top_drive import kernel_drive
 
 __all__ = ['max_stable_step', 'Chain', 'StringModel', 'lumped_chain', 'fem_chain', 'rgd', 'rgd_k',

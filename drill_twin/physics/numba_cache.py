@@ -4,9 +4,11 @@ numba's on-disk cache (``cache=True``) is keyed by the timestamp of the file of
 the function it compiles, not by the files that function calls: after an edit
 of a jitted helper in another module the old machine code keeps running.  To
 make stale code impossible, the cache directory is named after a hash of every
-source file of :mod:`drill_twin.physics` and :mod:`drill_twin.stability` that uses
-numba (the jitted kernels and every helper they call): any edit of any of them gives a
-new, empty directory (and a fresh compile), whatever the timestamps say.
+source file of :mod:`drill_twin.physics` that uses numba (the jitted kernels and every
+helper they call): any edit of any of them gives a new, empty directory (and a fresh
+compile), whatever the timestamps say.  Jitted code above physics (the stability
+module's Newton refinement) shares the directory: it calls physics helpers, whose edits
+change the key, and an edit of its own file changes the timestamp numba checks.
 
 The root is ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/drill_twin/numba``
 (``~/.cache/drill_twin/numba``); ``make clean-cache`` removes it.
@@ -22,15 +24,13 @@ from pathlib import Path
 __all__ = ['source_key', 'cache_root', 'cache_dir', 'configure', 'clear', 'is_cached']
 
 PHYSICS_DIR = Path(__file__).resolve().parent
-#: other folders whose jitted code shares the cache (the stability module's Newton refinement)
-OTHER_DIRS = (PHYSICS_DIR.parent / 'stability',)
 
 
 #: a file whose functions numba compiles: one with a decorated definition
 _COMPILES = re.compile(rb'^@(kernel_jit|njit)\b', re.M)
 
 
-def source_key(folder: Path = PHYSICS_DIR, others=OTHER_DIRS) -> str:
+def source_key(folder: Path = PHYSICS_DIR, others=()) -> str:
     """16 hex digits of SHA-256 over the names and contents of the ``*.py`` files of
     ``folder`` and ``others`` that numba compiles — those with a function decorated by
     ``@njit`` or the kernel's ``@kernel_jit`` — and of :mod:`drill_twin.physics.jit`, which

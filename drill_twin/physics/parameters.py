@@ -35,14 +35,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+from ..errors import ParameterError
+
 __all__ = [
-    'ParameterError', 'BitRockGroups', 'DrillStringSI', 'StringSection', 'Scales',
-    'steady_state', 'soft_torque_tuning', 'GRAVITY_M_S2',
+    'BitRockGroups', 'DrillStringSI', 'StringSection', 'Scales',
+    'steady_state', 'soft_torque_tuning', 'soft_torque_si', 'GRAVITY_M_S2',
 ]
-
-
-class ParameterError(ValueError):
-    """A drilling parameter is missing, non-finite or physically impossible."""
 
 
 def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
@@ -504,3 +502,16 @@ def soft_torque_tuning(drive_inertia_ratio: float) -> dict:
     r = _check_positive('drive_inertia_ratio', drive_inertia_ratio)
     xi = math.sqrt(1.0 / r / 2.0)
     return {'inertia': r, 'stiffness': r, 'damping': 2.0 * xi * r, 'xi_opt': xi}
+
+
+def soft_torque_si(system: DrillStringSI, drive_inertia_kgm2: float | None = None) -> dict:
+    """:func:`soft_torque_tuning` in SI for the string ``system``: I_DS [kg m²] (the
+    §2.2.1 drive unless given), k_f [N m/rad], c_f [N m s/rad], ξ_opt.  The
+    dimensionless values times the scales: inertias × I, stiffness × I/t*², damping ×
+    I/t*."""
+    s = system.scales()
+    I_ds = system.drive_inertia_kgm2 if drive_inertia_kgm2 is None else drive_inertia_kgm2
+    tuning = soft_torque_tuning(I_ds / s.inertia_kgm2)
+    return {'inertia': I_ds, 'stiffness': tuning['stiffness'] * s.inertia_kgm2 / s.time_s ** 2,
+            'damping': tuning['damping'] * s.inertia_kgm2 / s.time_s,
+            'xi_opt': tuning['xi_opt']}

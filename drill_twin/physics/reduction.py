@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sl
 
+from ..errors import ParameterError
 from .models import Chain, StringModel
-from .parameters import ParameterError
 
 __all__ = ['ReducedChain', 'reduce_chain', 'reduce_model', 'DEFAULT_CUTOFF',
            'MIN_REDUCED_DOFS']

@@ -14,24 +14,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ParameterError
 from . import kernel as K
 from .bottom_surface import fill_steady, new_surface, nodes_for
-from .interface_law import ANG_SLIP, AX_DOWN, AX_UP, MD_ANG, MD_AX, MD_CONTACT
-from .models import StringModel, max_stable_step, rgd
-from .parameters import BitRockGroups, ParameterError
-from .time_history import (
-    N_SIGNALS,
-    S_BIT_ANGULAR_SPEED,
-    S_BIT_AXIAL_SPEED,
-    new_time_history,
-    push_sample,
+from .chain import pack_chain
+from .layout import (
+    ANGULAR,
+    AXIAL,
+    COUNTER,
+    DRIVE,
+    INPUT,
+    MODE,
+    RECORD_CHANNELS,
+    SIGNAL,
+    START,
+    STATUS,
+    TIME,
+    state_layout,
 )
+from .models import StringModel, max_stable_step, rgd
+from .parameters import BitRockGroups
+from .time_history import new_time_history, push_sample
 from .top_drive import kernel_drive
 
 __all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling',
-           'compile_kernels']
+           'compile_kernels', 'state_slices']
 
-_RECORD_NAMES = {name: i for i, name in enumerate(K.RECORD_CHANNELS)}
+_RECORD_NAMES = {name: i for i, name in enumerate(RECORD_CHANNELS)}
 
 
 def bit_law(groups: BitRockGroups):
@@ -68,6 +77,24 @@ def top_coupling(model: StringModel, groups: BitRockGroups, drive_time_constant:
                  drive_tau=float(drive_time_constant), z_a=float(z_a), tau_a=float(tau_a),
                  z_t=float(z_t), tau_t=float(tau_t),
                  **{k: float(v) for k, v in drive.items()})
+
+
+def state_slices(na: int, nt: int) -> dict:
+    """Slices of the parts of the state vector of ``na`` axial and ``nt`` torsional DOFs,
+    from :func:`~drill_twin.physics.layout.state_layout`: ``u, v, phi, omega`` and the drive
+    block's entries under their names (``drive_angle, drive_speed, block, drive_integral,
+    torque_reference``)."""
+    L = state_layout.py_func(na, nt)
+    out = {'u': slice(L.u, L.u + na), 'v': slice(L.v, L.v + na),
+           'phi': slice(L.phi, L.phi + nt), 'omega': slice(L.omega, L.omega + nt)}
+    for name, index in DRIVE._asdict().items():
+        out[_DRIVE_SLICE_NAMES[name]] = slice(L.drive + index, L.drive + index + 1)
+    return out
+
+
+#: the names :meth:`Simulation.slices` gives the drive block's entries
+_DRIVE_SLICE_NAMES = {'angle': 'drive_angle', 'speed': 'drive_speed', 'block': 'block',
+                      'integral': 'drive_integral', 'torque_reference': 'torque_reference'}
 
 
 class SimulationDiverged(RuntimeError):
@@ -134,25 +161,25 @@ class Simulation:
         self.model = model
         self.groups = groups
         self.h = float(time_step)
-        self.A = K.pack_chain(model.axial)
-        self.T = K.pack_chain(model.torsional)
+        self.A = pack_chain(model.axial)
+        self.T = pack_chain(model.torsional)
         self.law, period, min_gap = bit_law(groups)
         self.top = top_coupling(model, groups, drive_time_constant)
         if model.delayed_damping is not None and (self.A.shape[1] != 1 or self.T.shape[1] != 1):
             raise ParameterError('delayed dash-pots need single-mass chains (model III)')
-        self.inputs = np.zeros(K.N_INPUTS)
-        self.inputs[K.IN_OMEGA_CMD] = groups.omega_o
-        self.inputs[K.IN_BLOCK_VELOCITY] = groups.upsilon_o
+        self.inputs = np.zeros(len(INPUT))
+        self.inputs[INPUT.speed_command] = groups.omega_o
+        self.inputs[INPUT.block_velocity] = groups.upsilon_o
         na, nt = self.A.shape[1], self.T.shape[1]
         self.n_axial, self.n_torsional = na, nt
-        self.x = np.zeros(2 * na + 2 * nt + K.N_DRIVE_STATES)
-        self.mode = np.zeros(MD_CONTACT + self.law.offsets.size, np.int64)
-        self.mode[MD_ANG], self.mode[MD_AX] = ANG_SLIP, AX_DOWN
-        self.mode[MD_CONTACT:] = 1
-        self.tau = np.zeros(2)  # [τ, accumulated angular stick time]
-        self.counters = np.zeros(K.N_COUNTERS, np.int64)
+        self.x = np.zeros(state_layout.py_func(na, nt).size)
+        self.mode = np.zeros(MODE.contact + self.law.offsets.size, np.int64)
+        self.mode[MODE.angular], self.mode[MODE.axial] = ANGULAR.slip, AXIAL.down
+        self.mode[MODE.contact:] = 1
+        self.tau = np.zeros(len(TIME))  # the clock: τ and the accumulated angular stick time
+        self.counters = np.zeros(len(COUNTER), np.int64)
         # bit motion at the end of the initial function, when a perturbation jumps from it
-        self.start_bit = np.zeros(5)
+        self.start_bit = np.zeros(len(START))
         # the bottom surface of steady drilling (the initial function of the DDE)
         nodes = surface_nodes or nodes_for(period, groups.omega_o * self.h, min_gap)
         self.surface, self.geom = new_surface(period, nodes, min_gap)
@@ -162,17 +189,17 @@ class Simulation:
         memory = max(self.top.tau_a, self.top.tau_t, self.top.t_delay)
         self.th, self.thm = new_time_history(int(1.5 * memory / self.h) + 64 if memory else 4)
         if memory:
-            steady = np.zeros(N_SIGNALS)
-            steady[S_BIT_AXIAL_SPEED] = groups.upsilon_o
-            steady[S_BIT_ANGULAR_SPEED] = groups.omega_o
+            steady = np.zeros(len(SIGNAL))
+            steady[SIGNAL.bit_axial_speed] = groups.upsilon_o
+            steady[SIGNAL.bit_angular_speed] = groups.omega_o
             for k in range(int(1.2 * memory / self.h) + 2, -1, -1):
-                push_sample(self.th, self.thm, -k * self.h, steady, np.zeros(N_SIGNALS))
+                push_sample(self.th, self.thm, -k * self.h, steady, np.zeros(len(SIGNAL)))
 
     # --- state access -------------------------------------------------------------
     @classmethod
     def from_scenario(cls, scenario, time_step: float | None = None,
                       drive_time_constant: float = 0.0, perturbation: dict | None = None):
-        """The simulation a :class:`~drill_twin.physics.scenario.Scenario` describes, with its
+        """The simulation a :class:`~drill_twin.config.scenario.Scenario` describes, with its
         initial perturbation applied (``perturbation`` replaces the configured one;
         ``time_step`` the configured step)."""
         if scenario.stability_only:
@@ -191,8 +218,20 @@ class Simulation:
         return float(self.tau[0])
 
     def slices(self):
-        """Named slices of the state vector (:func:`drill_twin.physics.kernel.layout`)."""
-        return K.layout(self.n_axial, self.n_torsional)
+        """Named slices of the state vector (:func:`drill_twin.physics.layout.state_layout`):
+        ``u, v, phi, omega`` and the drive block's ``drive_angle, drive_speed, block,
+        drive_integral, torque_reference``."""
+        return state_slices(self.n_axial, self.n_torsional)
+
+    def kernel_model(self) -> K.Model:
+        """What the kernel integrates (:class:`~drill_twin.physics.kernel.Model`)."""
+        return K.Model(self.law, self.top, self.A, self.T, self.geom)
+
+    def kernel_state(self) -> K.State:
+        """The arrays the kernel updates (:class:`~drill_twin.physics.kernel.State`), this
+        simulation's own (built at each call: attributes may have been replaced)."""
+        return K.State(self.tau, self.x, self.mode, self.inputs, self.surface, self.th,
+                       self.thm, self.counters, self.start_bit)
 
     def perturb(self, u: float = 0.0, v: float = 0.0, phi: float = 0.0, omega: float = 0.0,
                 where: str = 'bit'):
@@ -234,7 +273,7 @@ class Simulation:
                 profile = chain.project(profile)
             self.x[idx] += val * profile
         if self.groups.upsilon_o + self.x[sl['v'].stop - 1] < 0:
-            self.mode[MD_AX] = AX_UP
+            self.mode[MODE.axial] = AXIAL.up
         self._jump_from_initial_function()
 
     def _jump_from_initial_function(self):
@@ -243,9 +282,12 @@ class Simulation:
         not from the perturbed state (the convention of the thesis and of the delay
         formulation; an instantaneous jump of the bit angle would otherwise leave a sector
         of rock uncut)."""
-        if self.time == 0.0 and self.counters[K.C_STEPS] == 0:
+        if self.time == 0.0 and self.counters[COUNTER.steps] == 0:
             g = self.groups
-            self.start_bit[:] = (0.0, g.upsilon_o, 0.0, g.omega_o, 1.0)
+            start = self.start_bit
+            start[START.position], start[START.velocity] = 0.0, g.upsilon_o
+            start[START.angle], start[START.speed] = 0.0, g.omega_o
+            start[START.pending] = 1.0
 
     def set_perturbation_state(self, y):
         """Set the perturbation state ``[u, u', φ, φ']`` of all DOFs, followed for a motor
@@ -268,13 +310,13 @@ class Simulation:
         """Command the dimensionless surface (motor) speed."""
         if not (math.isfinite(omega) and omega >= 0):
             raise ParameterError(f'surface speed must be finite and >= 0, got {omega!r}')
-        self.inputs[K.IN_OMEGA_CMD] = omega
+        self.inputs[INPUT.speed_command] = omega
 
     def set_axial_top_force(self, force: float):
         """Extra downward force on the top DOF, units W* (hook-load change, negated)."""
         if not math.isfinite(force):
             raise ParameterError('axial top force must be finite')
-        self.inputs[K.IN_AXIAL_FORCE] = force
+        self.inputs[INPUT.axial_force] = force
 
     def set_block_velocity(self, velocity: float):
         """Command the block (top of an imposed-velocity string, or drum of a hoist) to move
@@ -282,20 +324,19 @@ class Simulation:
         motion)."""
         if not math.isfinite(velocity):
             raise ParameterError('block velocity must be finite')
-        self.inputs[K.IN_BLOCK_VELOCITY] = velocity
+        self.inputs[INPUT.block_velocity] = velocity
 
     # --- running ---------------------------------------------------------------------
     def advance(self, n_steps: int, record_every: int = 0, record_state: bool = False):
         """Advance ``n_steps`` steps; return a :class:`Trajectory` of the recorded rows."""
         n_rows = n_steps // record_every if record_every > 0 else 0
-        record = np.zeros((n_rows, K.N_RECORD))
+        record = np.zeros((n_rows, len(RECORD_CHANNELS)))
         state = np.zeros((n_rows if record_state else 0, self.x.size))
         n_rec = np.zeros(1, np.int64)
-        K.advance(int(n_steps), self.h, self.tau, self.x, self.mode, self.law, self.top,
-                  self.inputs, self.A, self.T, self.surface, self.geom, self.th, self.thm,
-                  self.counters, self.start_bit, record, int(record_every), n_rec, state)
-        if self.counters[K.C_STATUS] != K.STATUS_OK:
-            idx = int(self.counters[K.C_BAD_INDEX])
+        K.advance(int(n_steps), self.h, self.kernel_model(), self.kernel_state(),
+                  K.Recording(record, state, int(record_every), n_rec))
+        if self.counters[COUNTER.status] != STATUS.ok:
+            idx = int(self.counters[COUNTER.bad_index])
             part = next((k for k, s in self.slices().items() if s.start <= idx < s.stop),
                         'drive')
             raise SimulationDiverged(
@@ -325,7 +366,7 @@ class Simulation:
             done += n
             if progress is not None:
                 progress(done / total)
-        data = np.concatenate(parts) if parts else np.zeros((0, K.N_RECORD))
+        data = np.concatenate(parts) if parts else np.zeros((0, len(RECORD_CHANNELS)))
         state = np.concatenate(states) if record_state and states else None
         return Trajectory(data, state)
 
@@ -340,9 +381,8 @@ class Simulation:
 
     def snapshot(self) -> dict:
         """Current recorded channels (dimensionless), without advancing."""
-        row = np.zeros(K.N_RECORD)
-        K.snapshot(self.tau, self.x, self.mode, self.law, self.top, self.inputs, self.A,
-                   self.T, self.surface, self.geom, self.th, self.thm, row)
+        row = np.zeros(len(RECORD_CHANNELS))
+        K.snapshot(self.kernel_model(), self.kernel_state(), row)
         return {name: float(row[i]) for name, i in _RECORD_NAMES.items()}
 
     @property
@@ -354,15 +394,15 @@ class Simulation:
     @property
     def surface_writes(self) -> int:
         """Surface nodes written so far (the blades' passes over the rock)."""
-        return int(self.counters[K.C_WRITES])
+        return int(self.counters[COUNTER.writes])
 
     @property
     def event_count(self) -> int:
-        return int(self.counters[K.C_EVENTS])
+        return int(self.counters[COUNTER.events])
 
     @property
     def impulse_count(self) -> int:
-        return int(self.counters[K.C_IMPULSES])
+        return int(self.counters[COUNTER.impulses])
 
 
 def compile_kernels():

@@ -27,9 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernel as K
 from .bottom_surface import fill_flat
-from .interface_law import ANG_SLIP, AX_DOWN, MD_ANG, MD_AX, MD_CONTACT
+from .layout import ANGULAR, AXIAL, INPUT, MODE
 
 __all__ = ['rest_state', 'element_tension_N', 'element_weights_below_N']
 
@@ -65,16 +64,16 @@ def rest_state(sim, gap: float):
         unit = _static_solve(ax, top.k_a * e_top)
         z_p = (u_target - base[-1]) / unit[-1]
         u = base + z_p * unit
-        sim.inputs[K.IN_AXIAL_FORCE] = 0.0
+        sim.inputs[INPUT.axial_force] = 0.0
     else:                                      # constant hook load: hook load = weight
-        sim.inputs[K.IN_AXIAL_FORCE] = -g.W_o
+        sim.inputs[INPUT.axial_force] = -g.W_o
         u = _static_solve(ax, top.psi * g.W_o * (e_bit - e_top), pin=True)
         u += u_target - u[-1]
         z_p = 0.0
     x[sl['u']] = u
     x[sl['v']] = -g.upsilon_o
     x[sl['block']] = z_p
-    sim.inputs[K.IN_BLOCK_VELOCITY] = 0.0
+    sim.inputs[INPUT.block_velocity] = 0.0
     # --- torsional: untwisted, motor angle θ_p = 0, everything at rest
     if nt > 0:
         e = np.zeros(nt)
@@ -83,12 +82,12 @@ def rest_state(sim, gap: float):
         x[sl['omega']] = -g.omega_o
     x[sl['drive_angle']] = 0.0
     x[sl['drive_speed']] = -g.omega_o
-    sim.inputs[K.IN_OMEGA_CMD] = 0.0
+    sim.inputs[INPUT.speed_command] = 0.0
     # --- the rock: flat, at U = 0; no blade on it
     fill_flat(sim.surface, 0.0, tau)
-    sim.mode[MD_ANG] = ANG_SLIP
-    sim.mode[MD_AX] = AX_DOWN
-    sim.mode[MD_CONTACT:] = 0
+    sim.mode[MODE.angular] = ANGULAR.slip
+    sim.mode[MODE.axial] = AXIAL.down
+    sim.mode[MODE.contact:] = 0
     sim.start_bit[:] = 0.0
     return float(z_p)
 

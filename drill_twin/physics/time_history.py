@@ -10,10 +10,11 @@ Samples are kept in a ring of fixed capacity (the longest delay over the step, p
 margin), and read by cubic Hermite interpolation of each signal from its values and
 slopes.
 
-Signals, in this order (:data:`SIGNALS`): total bit axial velocity U', total bit angular
-speed Φ', motor speed perturbation ω_m and surface (first-element) torque perturbation
-T_s.  Ring layout: ``hist`` of shape (1 + 2 S, capacity): row 0 τ, rows 1..S the values,
-rows S+1..2S the slopes; ``meta = [start, count, overflows]``.
+Signals (:data:`~drill_twin.physics.layout.SIGNAL`): total bit axial velocity U', total
+bit angular speed Φ', motor speed perturbation ω_m and surface (first-element) torque
+perturbation T_s.  Ring layout: ``hist`` of shape (1 + 2 S, capacity): row 0 τ, rows
+1..S the values, rows S+1..2S the slopes; ``meta`` (``HISTORY``): the first sample, the
+samples held, the reads before the first.
 """
 from __future__ import annotations
 
@@ -21,20 +22,15 @@ import numpy as np
 
 from .hermite import hermite
 from .jit import kernel_jit
+from .layout import HISTORY, RING, SIGNAL
 
-__all__ = ['new_time_history', 'push_sample', 'sample_at_time', 'SIGNALS',
-           'S_BIT_AXIAL_SPEED', 'S_BIT_ANGULAR_SPEED', 'S_MOTOR_SPEED', 'S_SURFACE_TORQUE',
-           'N_SIGNALS']
-
-SIGNALS = ('bit_axial_speed', 'bit_angular_speed', 'motor_speed', 'surface_torque')
-S_BIT_AXIAL_SPEED, S_BIT_ANGULAR_SPEED, S_MOTOR_SPEED, S_SURFACE_TORQUE = 0, 1, 2, 3
-N_SIGNALS = len(SIGNALS)
-M_START, M_COUNT, M_OVERFLOW = 0, 1, 2
+__all__ = ['new_time_history', 'push_sample', 'sample_at_time']
 
 
 def new_time_history(capacity: int):
-    """Empty ring of ``capacity`` samples of the :data:`SIGNALS`."""
-    return np.zeros((1 + 2 * N_SIGNALS, max(int(capacity), 4))), np.zeros(3, np.int64)
+    """Empty ring of ``capacity`` samples of the signals (:data:`SIGNAL`)."""
+    return (np.zeros((RING.size, max(int(capacity), 4))),
+            np.zeros(len(HISTORY), np.int64))
 
 
 @kernel_jit
@@ -43,24 +39,24 @@ def push_sample(hist, meta, t, values, slopes):
     overwritten when full, and a sample at the same instant (an event) replaces the
     last one."""
     cap = hist.shape[1]
-    n_sig = (hist.shape[0] - 1) // 2
-    count = meta[M_COUNT]
+    n_sig = len(SIGNAL)
+    count = meta[HISTORY.count]
     idx = -1
     if count > 0:
-        last = (meta[M_START] + count - 1) % cap
-        if hist[0, last] >= t:        # an event at the same instant: keep the latest
+        last = (meta[HISTORY.start] + count - 1) % cap
+        if hist[RING.time, last] >= t:    # an event at the same instant: keep the latest
             idx = last
     if idx < 0:
         if count < cap:
-            idx = (meta[M_START] + count) % cap
-            meta[M_COUNT] = count + 1
+            idx = (meta[HISTORY.start] + count) % cap
+            meta[HISTORY.count] = count + 1
         else:
-            idx = meta[M_START]
-            meta[M_START] = (meta[M_START] + 1) % cap
-        hist[0, idx] = t
+            idx = meta[HISTORY.start]
+            meta[HISTORY.start] = (meta[HISTORY.start] + 1) % cap
+        hist[RING.time, idx] = t
     for k in range(n_sig):
-        hist[1 + k, idx] = values[k]
-        hist[1 + n_sig + k, idx] = slopes[k]
+        hist[RING.values + k, idx] = values[k]
+        hist[RING.slopes + k, idx] = slopes[k]
 
 
 @kernel_jit
@@ -69,33 +65,33 @@ def sample_at_time(hist, meta, t, out):
     oldest sample return its values and count an overflow; times after the newest return
     the newest."""
     cap = hist.shape[1]
-    n_sig = (hist.shape[0] - 1) // 2
-    start = meta[M_START]
-    count = meta[M_COUNT]
+    n_sig = len(SIGNAL)
+    start = meta[HISTORY.start]
+    count = meta[HISTORY.count]
     if count == 0:
         for k in range(n_sig):
             out[k] = 0.0
         return
     last = (start + count - 1) % cap
-    if t <= hist[0, start] or t >= hist[0, last]:
-        i = start if t <= hist[0, start] else last
-        if t < hist[0, start]:
-            meta[M_OVERFLOW] += 1
+    if t <= hist[RING.time, start] or t >= hist[RING.time, last]:
+        i = start if t <= hist[RING.time, start] else last
+        if t < hist[RING.time, start]:
+            meta[HISTORY.overflows] += 1
         for k in range(n_sig):
-            out[k] = hist[1 + k, i]
+            out[k] = hist[RING.values + k, i]
         return
     lo = 0
     hi = count - 1
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if hist[0, (start + mid) % cap] < t:
+        if hist[RING.time, (start + mid) % cap] < t:
             lo = mid
         else:
             hi = mid
     i0 = (start + lo) % cap
     i1 = (start + hi) % cap
-    h = hist[0, i1] - hist[0, i0]
-    s = (t - hist[0, i0]) / h
+    h = hist[RING.time, i1] - hist[RING.time, i0]
+    s = (t - hist[RING.time, i0]) / h
     for k in range(n_sig):
-        out[k] = hermite(hist[1 + k, i0], hist[1 + k, i1], hist[1 + n_sig + k, i0],
-                         hist[1 + n_sig + k, i1], h, s)
+        out[k] = hermite(hist[RING.values + k, i0], hist[RING.values + k, i1],
+                         hist[RING.slopes + k, i0], hist[RING.slopes + k, i1], h, s)

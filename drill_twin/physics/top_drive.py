@@ -39,8 +39,8 @@ import cmath
 import math
 from dataclasses import dataclass, replace
 
-from .parameters import DrillStringSI, ParameterError
-from .soft_torque import soft_torque_si
+from ..errors import ParameterError
+from .parameters import DrillStringSI, soft_torque_si
 
 __all__ = ['CONTROLLERS', 'DriveGains', 'TopDrive', 'pipe_torsional_impedance',
            'mode_gains', 'drive_impedance', 'reflection_coefficient', 'kernel_drive']

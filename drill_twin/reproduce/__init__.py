@@ -11,7 +11,7 @@ import json
 import time
 from pathlib import Path
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 
 __all__ = ['FIGURE_IDS', 'reproduce']
 

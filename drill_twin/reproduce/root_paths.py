@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.scenario import load_scenario
+from ..config.scenario import load_scenario
 from ..plotting import plt
 from ..stability.charts import plot_chart, stability_chart
 from ..stability.linearize import linearize_scenario

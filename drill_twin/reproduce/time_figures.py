@@ -11,7 +11,7 @@ import functools
 
 import numpy as np
 
-from ..physics.scenario import load_scenario
+from ..config.scenario import load_scenario
 from ..physics.simulation import Simulation
 from ..plotting import plt, stick_spans
 

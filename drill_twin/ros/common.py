@@ -11,7 +11,7 @@ from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 from ..runtime.settings import Setting, check
 from .entry import install_quiet_signals, rclpy_took_over
 
@@ -43,7 +43,7 @@ def declare_settings(node, settings):
     (read-only ones act at start-up only: ``ros2 param describe`` says so).
 
     A start-up value (``-p name:=value``) of the wrong type or out of range raises
-    :class:`~drill_twin.physics.parameters.ParameterError` with one line naming the
+    :class:`~drill_twin.errors.ParameterError` with one line naming the
     parameter, the value, its unit and what is allowed.
     """
     for s in settings:

@@ -29,10 +29,10 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
+from ..config.scenario import load_scenario
+from ..errors import ParameterError
 from ..estimation.estimator import DownholeEstimator, EstimatorTuning, SensorNoise
 from ..estimation.surface_gate import CHANNELS, SurfaceGate, SurfaceLimits
-from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario
 from ..runtime.arbitration import Watchdog
 from ..runtime.pacing import SamplePacing
 from ..runtime.settings import ESTIMATOR_SETTINGS

@@ -15,8 +15,8 @@ import yaml
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
+from ..errors import ParameterError
 from ..io.mcap_reader import Recording
-from ..physics.parameters import ParameterError
 from ..topics import QoS
 from .messages import message_class, qos_profile
 

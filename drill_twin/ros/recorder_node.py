@@ -23,10 +23,10 @@ import os
 from rclpy.node import Node
 
 from .. import topics as T
+from ..errors import ParameterError
 from ..io.mcap_reader import RUN_METADATA
 from ..io.mcap_writer import McapRecorder
 from ..io.run_recorder import package_version, run_metadata
-from ..physics.parameters import ParameterError
 from ..runtime.settings import RECORDER_SETTINGS, ros_home
 from .common import declare_settings, run_node, say, warn_unknown_overrides
 from .messages import message_class, qos_profile

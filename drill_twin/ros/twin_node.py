@@ -1,5 +1,5 @@
 """``twin_node``: the drilling digital twin as a ROS 2 node (thin adapter over
-:class:`drill_twin.physics.digital_twin.DigitalTwin` and the real-time policy of
+:class:`drill_twin.runtime.digital_twin.DigitalTwin` and the real-time policy of
 :mod:`drill_twin.runtime`).
 
 Lifecycle: a managed node (configure = load the model and warm the kernels,
@@ -48,18 +48,18 @@ from std_msgs.msg import Float64, Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from .. import topics as T
+from ..config.scenario import load_scenario
 from ..console import LogProgress, prepare_kernels
+from ..errors import ParameterError
 from ..io.run_recorder import TwinRecorder
-from ..operations.driller import Driller, ScenarioError
 from ..operations.timeline import load_timeline
-from ..physics.digital_twin import DigitalTwin, SetpointError, aligned_step
-from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario
 from ..physics.simulation import SimulationDiverged
 from ..runtime.advisor import StabilityAdvisor
 from ..runtime.arbitration import SpeedArbiter
+from ..runtime.digital_twin import DigitalTwin, aligned_step
 from ..runtime.health import ERROR, WARN, EventWindow, human, worst
 from ..runtime.pacing import Pacer
+from ..runtime.session import TickSession
 from ..runtime.settings import TWIN_SETTINGS
 from .common import answer_every_transition, declare_settings, run_node, warn_unknown_overrides
 from .entry import interruptible
@@ -114,7 +114,7 @@ class TwinNode(LifecycleNode):
         self.twin = None
         self.recorder = None
         self.advisor = None
-        self.driller = None
+        self.session = None
         self.paused = False
         self.active = False
         self._entities = []        # what a configuration created and cleanup destroys
@@ -245,6 +245,7 @@ class TwinNode(LifecycleNode):
             settings={'publish_rate_hz': self._param('publish_rate_hz'),
                       'real_time_factor': self._param('real_time_factor'),
                       'as_fast_as_possible': self.fast, 'source': 'twin_node'})
+        self.session.recorder = self.recorder
         self.get_logger().info(f'recording to {path}')
         self._hold_recording()
 
@@ -298,7 +299,7 @@ class TwinNode(LifecycleNode):
                 self.destroy_timer(entity)
         self._entities = []
         self._set_advisory_period(0.0)
-        self.twin = self.driller = None
+        self.twin = self.session = None
 
     def _hold_recording(self):
         """Set-points are recorded when simulated time runs; while it is held (inactive,
@@ -323,6 +324,13 @@ class TwinNode(LifecycleNode):
         g = self._param
         self.arbiter = SpeedArbiter(self.twin.surface_speed_setpoint, g('command_timeout_s'))
         self.pacer = Pacer(g('real_time_factor'), 1.0 / g('publish_rate_hz'), self.twin.step_s)
+        # the node records measurements itself (with the stamps it publishes)
+        self.session = TickSession(self.twin, g('publish_rate_hz'), self.recorder,
+                                   records_measurements=False)
+        self.session.listeners.append(self._on_applied)
+        self.session.on_step = self.get_logger().info
+        self.session.on_scenario_error = lambda exc: self.get_logger().error(
+            f'scenario stopped: {exc}')
         self.blow_up = ''
         self._last_measurements = None
 
@@ -337,43 +345,48 @@ class TwinNode(LifecycleNode):
             self.recorder.event(name, fields, time_s)
         pub.publish(to_message(cls, fields))
 
+    @property
+    def driller(self):
+        return self.session.driller if self.session is not None else None
+
     def _apply_speed(self, value, source) -> bool:
         """Apply a speed set-point or command; ``source`` is its topic (recorded as such;
         the return to the operator set-point is recorded as ``surface_speed_setpoint``)."""
-        if self.recorder is not None:  # recorded as applied, rejected ones included
-            self.recorder.setpoint(source, value)
-        try:
-            self.twin.set_surface_speed(value)
-            return True
-        except SetpointError as exc:
-            self.health.add('rejected', time.monotonic())
-            kept = (f'the operator set-point {self.arbiter.operator_speed:g} rad/s'
-                    if source != 'surface_speed_command' else
-                    f'{self.twin.surface_speed_setpoint:.3f} rad/s')
-            self.get_logger().warning(f'rejected {source}: {exc}; keeping {kept}')
-            return False
+        return self.session.apply(source, value) is None
+
+    def _on_applied(self, name, value, error):
+        """After every set-point the session applied: arbitration, the advisory, and one
+        warning for a rejection (the twin keeps its last valid value)."""
+        now = time.monotonic()
+        if error is not None:
+            self.health.add('rejected', now)
+            kept = ''
+            if name == 'surface_speed_setpoint':
+                kept = f'; keeping the operator set-point {self.arbiter.operator_speed:g} rad/s'
+            elif name == 'surface_speed_command':
+                kept = f'; keeping {self.twin.surface_speed_setpoint:.3f} rad/s'
+            self.get_logger().warning(f'rejected {name}: {error}{kept}')
+        elif name == 'surface_speed_setpoint':
+            self.arbiter.on_operator(value, now)
+            self._advice_due = 0.0  # the advisory follows the new set-point at once
+        elif name == 'surface_speed_command':
+            self.arbiter.on_command(value, now)
+        elif name == 'hook_load_setpoint':
+            self._advice_due = 0.0
 
     def _on_speed(self, msg):
         self._operator_takes_over('surface_speed_setpoint')
         self._operator_speed(msg.data)
 
     def _operator_speed(self, value):
-        if self._apply_speed(value, 'surface_speed_setpoint'):
-            self.arbiter.on_operator(value, time.monotonic())
-            self._advice_due = 0.0  # the advisory follows the new set-point at once
+        self._apply_speed(value, 'surface_speed_setpoint')
 
     def _on_block(self, msg):
         self._operator_takes_over('block_velocity_setpoint')
         self._apply_block(msg.data)
 
     def _apply_block(self, value):
-        if self.recorder is not None:
-            self.recorder.setpoint('block_velocity_setpoint', value)
-        try:
-            self.twin.set_block_velocity(value)
-        except SetpointError as exc:
-            self.health.add('rejected', time.monotonic())
-            self.get_logger().warning(f'rejected block_velocity_setpoint: {exc}')
+        self.session.apply('block_velocity_setpoint', value)
 
     def _on_commands(self, msg):
         """Forward-command-controller style: ``data = [top-drive speed rad/s]`` or
@@ -426,7 +439,7 @@ class TwinNode(LifecycleNode):
 
     # --- operations scenarios ----------------------------------------------------------
     def _start_scenario(self):
-        self.driller = Driller(self.twin, self.timeline, self._driller_apply)
+        self.session.start_scenario(self.timeline)
         self.get_logger().info(f'scenario {self.timeline.path.name}: '
                                f'{len(self.timeline.steps)} steps')
 
@@ -438,34 +451,11 @@ class TwinNode(LifecycleNode):
         self._start_scenario()
         return _reply(response, True, f'scenario {self.timeline.path.name} started')
 
-    def _driller_apply(self, name, value):
-        if name == 'surface_speed_setpoint':
-            self._operator_speed(value)
-        elif name == 'block_velocity_setpoint':
-            self._apply_block(value)
-        else:
-            self._apply_hook_load(value)
-
     def _operator_takes_over(self, topic):
-        if self.driller is not None and not self.driller.done:
-            step = self.driller.step
-            self.driller = None
+        label = self.session.stop_scenario() if self.session is not None else None
+        if label is not None:
             self.get_logger().warning(f'{topic} from the operator: scenario stopped at '
-                                      f'{step.label}')
-
-    def _drive_scenario(self, dt):
-        if self.driller is None or self.driller.done:
-            return
-        previous = self.driller.index
-        try:
-            self.driller.tick(dt)
-        except ScenarioError as exc:
-            self.get_logger().error(f'scenario stopped: {exc}')
-            self.driller = None
-            return
-        if self.driller.index != previous:
-            self.get_logger().info(self.driller.step.label if not self.driller.done
-                                   else 'scenario done')
+                                      f'{label}')
 
     def _on_command(self, msg):
         if self._apply_speed(msg.data, 'surface_speed_command'):
@@ -476,14 +466,7 @@ class TwinNode(LifecycleNode):
         self._apply_hook_load(msg.data)
 
     def _apply_hook_load(self, value):
-        if self.recorder is not None:
-            self.recorder.setpoint('hook_load_setpoint', value)
-        try:
-            self.twin.set_hook_load(value)
-            self._advice_due = 0.0
-        except SetpointError as exc:
-            self.health.add('rejected', time.monotonic())
-            self.get_logger().warning(f'rejected hook_load_setpoint: {exc}')
+        self.session.apply('hook_load_setpoint', value)
 
     # --- parameters: validate on set, apply after ------------------------------------
     def _validate_parameters(self, params):
@@ -508,7 +491,9 @@ class TwinNode(LifecycleNode):
         for prm in params:
             if prm.name == 'real_time_factor':
                 self.pacer.retime(wall, sim, real_time_factor=prm.value)
-            elif prm.name == 'publish_rate_hz' and not self.fast:
+            elif prm.name == 'publish_rate_hz' and self.fast:
+                self.session.period_s = 1.0 / prm.value
+            elif prm.name == 'publish_rate_hz':
                 self.pacer.retime(wall, sim, period_s=1.0 / prm.value)
                 self._timer.cancel()
                 self.destroy_timer(self._timer)
@@ -535,20 +520,14 @@ class TwinNode(LifecycleNode):
                                       'set-point')
             self._apply_speed(back, 'surface_speed_setpoint')
         if self.fast:  # one period (exactly: as drill-twin scenario run ticks)
-            period = 1.0 / self._param('publish_rate_hz')
-            target, budget = self.twin.time_s + period, None
+            target, budget = None, None
         else:
             plan = self.pacer.plan(self._scheduled(wall), self.twin.time_s, self._ros_now())
             target, budget = plan.target_s, plan.max_steps
-            period = target - self.twin.time_s
-        if period > 0.0:
-            self._drive_scenario(period)
-        before = self.twin.time_s
         try:
-            self.twin.advance_to(target, max_steps=budget)
-            if self.twin.time_s <= before:   # no grid instant due yet: nothing new to say
+            m = self.session.tick(target, budget)
+            if m is None:                     # no grid instant due yet: nothing new to say
                 return
-            m = self.twin.measurements()
         except SimulationDiverged as exc:  # model blow-up: report, keep the node up
             self.blow_up = str(exc)
             self.get_logger().error(f'model stopped: {exc}')

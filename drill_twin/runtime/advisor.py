@@ -149,8 +149,8 @@ def advise(scenario, surface_speed_rad_s: float, weight_on_bit_N: float) -> dict
 
 
 def _worker(stdin, stdout):
-    from ..physics.parameters import ParameterError
-    from ..physics.scenario import scenario_from_dict
+    from ..config.scenario import scenario_from_dict
+    from ..errors import ParameterError
     first = stdin.readline()
     if not first:
         return 0

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.parameters import ParameterError
-from ..physics.scenario import apply_overrides, scenario_from_dict
+from ..config.scenario import apply_overrides, scenario_from_dict
+from ..errors import ParameterError
 from .linearize import linearize_scenario
 from .spectrum import rightmost_roots
 

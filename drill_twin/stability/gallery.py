@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..physics.parameters import ParameterError
-from ..physics.scenario import load_scenario
+from ..config.scenario import load_scenario
+from ..errors import ParameterError
 from .charts import chart_pool, plot_chart, stability_chart
 
 __all__ = ['FIGURES', 'make_gallery', 'draw_figure']

@@ -54,8 +54,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..physics.layout import TRIPLE, indices, state_layout
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
+
+#: a motor drive's states, appended to the linear state ``[u, u', φ, φ']`` (the kernel's
+#: drive block also holds the prescribed angle, speed and block, which are not states of
+#: the linearisation: they are the operating point)
+LINEAR_DRIVE = indices('LinearDrive', ('integral', 'torque_reference'))
 
 __all__ = ['LinearDDE', 'linearize', 'linearize_semi_infinite', 'linearize_scenario']
 
@@ -104,31 +110,33 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
     tr = model.torsional
     na = ax.n
     nt = tr.n if tr is not None else 0
-    n = 2 * na + 2 * nt
+    L = state_layout.py_func(na, nt)
+    n = L.drive                        # the linear state: [u, u', φ, φ']
     A0 = np.zeros((n, n))
     A1 = np.zeros((n, n))
     nb = groups.n_b
     alpha = groups.alpha_o
     # selector rows for the delayed depth-of-cut combination (u_b - α φ_b)
     sel = np.zeros(n)
-    sel[na - 1] = 1.0
+    sel[L.bit_u] = 1.0
     if nt:
-        sel[2 * na + nt - 1] = -alpha
+        sel[L.bit_phi] = -alpha
+    u, v = slice(L.u, L.u + na), slice(L.v, L.v + na)
     Ma_inv = np.linalg.inv(ax.dense('mass'))
-    A0[:na, na:2 * na] = np.eye(na)
-    A0[na:2 * na, :na] = -Ma_inv @ ax.dense('stiffness')
-    A0[na:2 * na, na:2 * na] = -Ma_inv @ ax.dense('damping')
-    col_a = Ma_inv[:, na - 1] * model.psi * nb
-    A0[na:2 * na] -= np.outer(col_a, sel)
-    A1[na:2 * na] += np.outer(col_a, sel)
+    A0[u, v] = np.eye(na)
+    A0[v, u] = -Ma_inv @ ax.dense('stiffness')
+    A0[v, v] = -Ma_inv @ ax.dense('damping')
+    col_a = Ma_inv[:, -1] * model.psi * nb      # the bit: the chain's last DOF
+    A0[v] -= np.outer(col_a, sel)
+    A1[v] += np.outer(col_a, sel)
     labels = [f'u{i}' for i in range(na)] + [f'du{i}' for i in range(na)]
     if nt:
         Mt_inv = np.linalg.inv(tr.dense('mass'))
-        p, w = slice(2 * na, 2 * na + nt), slice(2 * na + nt, n)
+        p, w = slice(L.phi, L.phi + nt), slice(L.omega, L.omega + nt)
         A0[p, w] = np.eye(nt)
         A0[w, p] = -Mt_inv @ tr.dense('stiffness')
         A0[w, w] = -Mt_inv @ tr.dense('damping')
-        col_t = Mt_inv[:, nt - 1] * nb
+        col_t = Mt_inv[:, -1] * nb
         A0[w] -= np.outer(col_t, sel)
         A1[w] += np.outer(col_t, sel)
         labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
@@ -149,10 +157,10 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
     if model.delayed_damping is not None:  # lumped model III (single masses)
         z_a, tau_a, z_t, tau_t = model.delayed_damping
         B = np.zeros((n, n))
-        B[na, na] = -z_a / ax.dense('mass')[0, 0]
+        B[L.bit_v, L.bit_v] = -z_a / ax.dense('mass')[0, 0]
         extra.append((B, tau_a))
         B = np.zeros((n, n))
-        B[2 * na + nt, 2 * na + nt] = -z_t / tr.dense('mass')[0, 0]
+        B[L.bit_omega, L.bit_omega] = -z_t / tr.dense('mass')[0, 0]
         extra.append((B, tau_t))
     return LinearDDE(A0, A1, delay, labels, extra)
 
@@ -161,10 +169,10 @@ def surface_torque_row(model: StringModel) -> np.ndarray:
     """``s_T`` with ``T_s = s_Tᵀ y``: torque in the first element of the torsional chain
     (units C) over the state ``[u, u', φ, φ']``."""
     na, tr = model.axial.n, model.torsional
-    nt = tr.n
-    row = np.zeros(2 * na + 2 * nt)
-    k01, c01 = tr.stiffness[2, 0], tr.damping[2, 0]
-    p0, w0 = 2 * na, 2 * na + nt
+    L = state_layout.py_func(na, tr.n)
+    row = np.zeros(L.drive)
+    k01, c01 = tr.stiffness[TRIPLE.upper, 0], tr.damping[TRIPLE.upper, 0]
+    p0, w0 = L.top_phi, L.top_omega
     row[p0], row[p0 + 1] = -k01, k01
     row[w0], row[w0 + 1] = -c01, c01
     return row
@@ -175,9 +183,9 @@ def _with_motor_drive(model: StringModel, A0, A1, extra):
     d = model.motor_drive
     n = A0.shape[0]
     na, nt = model.axial.n, model.torsional.n
-    w0 = 2 * na + nt
-    m = n + 2
-    i_int, i_ref = n, n + 1
+    w0 = state_layout.py_func(na, nt).top_omega
+    m = n + len(LINEAR_DRIVE)
+    i_int, i_ref = n + LINEAR_DRIVE.integral, n + LINEAR_DRIVE.torque_reference
 
     def grow(M):
         out = np.zeros((m, m))
@@ -225,7 +233,7 @@ def linearize_semi_infinite(groups: BitRockGroups, psi: float, axial_impedance: 
 
 
 def linearize_scenario(scenario, groups: BitRockGroups | None = None) -> LinearDDE:
-    """Linearisation of a :class:`~drill_twin.physics.scenario.Scenario` (at ``groups``)."""
+    """Linearisation of a :class:`~drill_twin.config.scenario.Scenario` (at ``groups``)."""
     groups = groups or scenario.groups
     if scenario.stability_only:
         z = scenario.impedances()

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.scenario import load_scenario
+from ..config.scenario import load_scenario
 from .charts import stability_chart
 
 __all__ = ['variable_pitch_charts', 'plot_variable_pitch', 'PITCHES_DEG']

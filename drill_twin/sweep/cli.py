@@ -4,16 +4,27 @@ from __future__ import annotations
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
-from ..physics.parameters import ParameterError
-from .spec import DEFAULT_STATS, NONLINEAR_STATS, SweepSpec, parse_axis, parse_distribution
-from .store import stored_spec
+from ..errors import ParameterError
+from .spec import (
+    DEFAULT_STATS,
+    NONLINEAR_STATS,
+    SweepSpec,
+    parse_axis,
+    parse_distribution,
+    parse_stats,
+)
+from .store import SweepStore, stored_spec
 
-__all__ = ['add_parsers', 'cmd_sweep', 'spec_from_args']
+__all__ = ['register', 'cmd_sweep', 'spec_from_args']
+
+#: --threshold without the option [1/t*]
+DEFAULT_THRESHOLD = 1e-9
 
 
-def add_parsers(sub):
+def register(sub):
     s = sub.add_parser('sweep', help='parameter sweep on Dask: linear stability chart, '
                        'nonlinear stick-slip map, Monte Carlo (docs/sweeps.md)')
     s.add_argument('--config', required=True, help='YAML file, or a name in config/')
@@ -34,9 +45,10 @@ def add_parsers(sub):
     s.add_argument('--vary', action='append', default=[], metavar='KEY=DIST',
                    help='Monte Carlo: KEY=uniform(LOW,HIGH) | normal(MEAN,STD) | '
                    'lognormal(MEDIAN,SIGMA), repeatable')
-    s.add_argument('--seed', type=int, default=0, help='Monte Carlo random seed')
-    s.add_argument('--threshold', type=float, default=1e-9,
-                   help='linear: real part above which a root counts as unstable [1/t*]')
+    s.add_argument('--seed', type=int, default=None, help='Monte Carlo random seed '
+                   '(default 0)')
+    s.add_argument('--threshold', type=float, default=None, help='linear: real part above '
+                   f'which a root counts as unstable [1/t*] (default {DEFAULT_THRESHOLD:g})')
     s.add_argument('--scheduler', default=None, help='Dask scheduler tcp://HOST:PORT (default: '
                    '$DASK_SCHEDULER_ADDRESS, else a local cluster; "inline": this process)')
     s.add_argument('--workers', type=int, default=None, help='local cluster: worker '
@@ -50,12 +62,14 @@ def add_parsers(sub):
     s.set_defaults(func=cmd_sweep)
 
 
-def spec_from_args(args, block_points: int = 1) -> SweepSpec:
-    """The :class:`SweepSpec` of the command line (``block_points`` decided by the caller)."""
-    from ..physics.scenario import load_scenario
+def spec_from_args(args, block_points: int | None = None) -> SweepSpec:
+    """The :class:`SweepSpec` of the command line, every part checked (``block_points``
+    decided by the caller; None: the fewest allowed)."""
+    from ..config.scenario import load_scenario
+    _check_options(args)
     scenario = load_scenario(args.config, args.set)
-    x = parse_axis(args.x)
-    y = parse_axis(args.y) if args.y else None
+    x = parse_axis(args.x, '--x')
+    y = parse_axis(args.y, '--y') if args.y is not None else None
     vary = tuple(parse_distribution(v) for v in args.vary)
     duration = settle = 0.0
     if args.kind == 'nonlinear':
@@ -63,51 +77,70 @@ def spec_from_args(args, block_points: int = 1) -> SweepSpec:
             raise ParameterError('a nonlinear sweep needs --duration (simulated time per point)')
         duration = args.duration
         settle = duration / 2 if args.settle is None else args.settle
-        if 'upsilon_o' in {x.key, y.key if y else None}:
-            raise ParameterError('upsilon_o is an axis of linear sweeps only: sweep '
-                                 'operating_point.weight_on_bit_N or groups.W_o instead')
-    return SweepSpec(scenario.raw, args.kind, x, y, stats=tuple(args.stat or DEFAULT_STATS),
+    return SweepSpec(scenario.raw, args.kind, x, y, stats=parse_stats(args.stat, args.kind),
                      duration=duration, settle=settle, samples=args.samples, vary=vary,
-                     seed=args.seed, threshold=args.threshold, block_points=block_points,
-                     label=str(args.config))
+                     seed=args.seed or 0, block_points=block_points, label=str(args.config),
+                     threshold=DEFAULT_THRESHOLD if args.threshold is None else args.threshold)
 
 
-def _block_points(args, out: Path) -> int:
-    """``--block``, else the block size of the sweep being resumed, else timed."""
+#: options of one kind of sweep only: (option, attribute, the kind it belongs to)
+_KIND_OPTIONS = (('--duration', 'duration', 'nonlinear'), ('--settle', 'settle', 'nonlinear'),
+                 ('--threshold', 'threshold', 'linear'))
+
+
+def _check_options(args) -> None:
+    """Options that would be ignored are refused (an option of the other kind of sweep, a
+    seed without samples); --block and --samples bounded below."""
+    for option, name, kind in _KIND_OPTIONS:
+        if getattr(args, name) is not None and args.kind != kind:
+            raise ParameterError(f'{option} is an option of --kind {kind} sweeps (this one is '
+                                 f'{args.kind})')
+    if args.seed is not None and not args.samples:
+        raise ParameterError(f'--seed {args.seed} seeds Monte Carlo draws: it needs --samples '
+                             'N and --vary KEY=DIST')
+    if args.block is not None and args.block < 1:
+        raise ParameterError(f'--block {args.block}: must be >= 1 (points per task)')
+    if args.samples < 0:
+        raise ParameterError(f'--samples {args.samples}: must be >= 0')
+
+
+def _timed_block_points(probe: SweepSpec, workers: int) -> int:
+    """Points per block for about :data:`~drill_twin.sweep.engine.TARGET_TASK_S` of work,
+    from the slowest of three points evaluated here."""
     from .engine import block_points_for
-    from .evaluate import evaluate_block
-    if args.block is not None:
-        return args.block
-    stored = stored_spec(out)
-    if stored is not None:
-        return int(stored['block_points'])
-    probe = spec_from_args(args, 1)
+    from .evaluate import evaluate_points
     if probe.kind == 'nonlinear':
         from ..console import kernels_ready
         kernels_ready()
     print('drill-twin sweep: timing three points to size the blocks ...', file=sys.stderr,
           flush=True)
-    evaluate_block(probe, probe.points // 2)   # (a linear point's first call loads scipy)
+    middle = probe.points // 2
+    evaluate_points(probe, range(middle, middle + 1))  # (a linear point's first call loads scipy)
     seconds = 0.0
-    for flat in sorted({0, probe.points // 2, probe.points - 1}):   # the slowest of three
+    for flat in sorted({0, middle, probe.points - 1}):   # the slowest of three
         t0 = time.perf_counter()
-        evaluate_block(probe, flat)
+        evaluate_points(probe, range(flat, flat + 1))
         seconds = max(seconds, time.perf_counter() - t0)
-    import os
-    return block_points_for(probe, seconds, args.workers or os.cpu_count())
+    return block_points_for(probe, seconds, workers)
 
 
 def cmd_sweep(args) -> int:
+    """Check everything, reach the scheduler, size the blocks, run, write the figure."""
     from ..console import Progress
-    from .engine import run_sweep
+    from .engine import check_executor, connect, run_sweep
     from .plot import plot_sweep
-    if (args.workers is not None and args.workers < 1) or (args.block is not None
-                                                           and args.block < 1):
-        raise ParameterError('--workers and --block must be >= 1')
+    address = check_executor(args.scheduler, args.workers)
     out = Path(args.out)
-    spec = spec_from_args(args, _block_points(args, out))
-    report = run_sweep(spec, out, scheduler=args.scheduler, workers=args.workers,
-                       progress=Progress('sweep', args.progress or sys.stderr.isatty()))
+    spec = spec_from_args(args, args.block)
+    stored = stored_spec(out)
+    if stored is not None and args.block is None:
+        spec = replace(spec, block_points=stored.block_points)
+    SweepStore(out, spec)      # another sweep, or not a sweep directory: refused here
+    with connect(address, args.workers) as executor:
+        if stored is None and args.block is None:
+            spec = replace(spec, block_points=_timed_block_points(spec, executor.workers))
+        report = run_sweep(spec, out, executor=executor,
+                           progress=Progress('sweep', args.progress or sys.stderr.isatty()))
     import xarray as xr
     with xr.open_dataset(out / 'sweep.nc', engine='scipy') as ds:
         plot_sweep(ds.load(), out / 'sweep.png', title=f'{spec.label}: {spec.kind} sweep')

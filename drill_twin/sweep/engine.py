@@ -5,6 +5,13 @@ default; an existing cluster when ``scheduler`` (``tcp://HOST:PORT``) or Dask's 
 ``DASK_SCHEDULER_ADDRESS`` names one (its workers need drill_twin installed); or, with
 ``scheduler='inline'``, the calling process (the reference the tests compare against).
 
+Where it runs is checked before any work (:func:`check_executor`: the form of the
+address, the number of workers) and the scheduler is reached before anything is written
+(:func:`connect`): a TCP connection within :data:`CONNECT_TIMEOUT_S`, Dask's greeting
+within :data:`GREETING_TIMEOUT_S` (a server of another kind is refused before Dask's
+client reads its answer as a message length), the client within
+:data:`CLIENT_TIMEOUT_S`.
+
 Each worker compiles (or loads from numba's cache) the kernels once, before the first
 task (``Client.run``); a task is a block of points that share that compiled model, sized
 so that the scheduler's cost per task stays a small fraction of the task
@@ -12,22 +19,43 @@ so that the scheduler's cost per task stays a small fraction of the task
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import re
+import socket
+import struct
+import sys
 import time
 from dataclasses import dataclass
 
-from ..physics.parameters import ParameterError
+from ..errors import ParameterError
 from .evaluate import evaluate_block
-from .spec import SweepSpec
+from .spec import MAX_BLOCKS, SweepSpec
 from .store import SweepStore
 
-__all__ = ['run_sweep', 'SweepReport', 'block_points_for', 'TARGET_TASK_S', 'INLINE']
+__all__ = ['run_sweep', 'SweepReport', 'block_points_for', 'check_executor', 'connect',
+           'TARGET_TASK_S', 'INLINE']
 
 #: wall time a task should take: ~100x the scheduler's per-task cost (a few ms)
 TARGET_TASK_S = 0.5
 #: ``scheduler`` value that evaluates in the calling process
 INLINE = 'inline'
+#: Dask's own variable naming a scheduler
+ENV_ADDRESS = 'DASK_SCHEDULER_ADDRESS'
+#: a scheduler address: tcp:// or tls://, a host name, IPv4 or [IPv6] address, a port
+_ADDRESS = re.compile(r'^(tcp|tls)://([A-Za-z0-9_.-]{1,253}|\[[0-9A-Fa-f:.]{2,45}\]):'
+                      r'(\d{1,5})$')
+#: most worker processes of a local cluster, per core (more only add memory)
+WORKERS_PER_CORE = 4
+#: seconds to open a TCP connection to a scheduler
+CONNECT_TIMEOUT_S = 5.0
+#: seconds for a scheduler to greet (Dask's listener writes its handshake at once)
+GREETING_TIMEOUT_S = 5.0
+#: a greeting's length prefix above this [bytes] is not Dask's handshake (~200 bytes)
+MAX_GREETING_BYTES = 2 ** 20
+#: seconds for Dask's client to connect, and to close a client or a local cluster
+CLIENT_TIMEOUT_S = 10.0
 
 
 @dataclass
@@ -64,33 +92,158 @@ class SweepReport:
 def block_points_for(spec: SweepSpec, seconds_per_point: float, workers: int) -> int:
     """Points per task: about :data:`TARGET_TASK_S` of work, at least four tasks per
     worker when the grid allows; linear sweeps in whole lines of ``x`` where a line is
-    shorter than a task (the root seeds run along a line)."""
+    shorter than a task (the root seeds run along a line); never more than
+    :data:`~drill_twin.sweep.spec.MAX_BLOCKS` blocks."""
     per_task = max(1, round(TARGET_TASK_S / max(seconds_per_point, 1e-6)))
     per_task = min(per_task, max(1, spec.points // (4 * max(workers, 1))))
     if spec.kind == 'linear' and not spec.samples and per_task >= spec.x.size:
         per_task = (per_task // spec.x.size) * spec.x.size
-    return per_task
+    return max(per_task, -(-spec.points // MAX_BLOCKS))
 
 
+# --- where the blocks run ---------------------------------------------------------------
+def check_executor(scheduler: str | None, workers: int | None) -> str | None:
+    """The scheduler a sweep uses — None (a local cluster), :data:`INLINE` or a checked
+    ``tcp://HOST:PORT`` (``scheduler``, else ``$DASK_SCHEDULER_ADDRESS``) — and
+    ``workers`` checked: one-line errors, before any work."""
+    if scheduler is not None:
+        address, where = scheduler.strip(), '--scheduler'
+        if not address:
+            raise ParameterError("--scheduler '': give inline or tcp://HOST:PORT (without "
+                                 '--scheduler: a local cluster)')
+    else:
+        address, where = os.environ.get(ENV_ADDRESS, '').strip() or None, ENV_ADDRESS
+    if address is not None and not (address == INLINE and where == '--scheduler'):
+        _split_address(address, where)
+    if workers is not None:
+        most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+        if not 1 <= workers <= most:
+            raise ParameterError(f'--workers {workers}: must be in [1, {most}] ({WORKERS_PER_CORE} '
+                                 'per core; a larger cluster: --scheduler tcp://HOST:PORT)')
+        if address is not None:
+            raise ParameterError(f'--workers {workers} is the size of a local cluster: not '
+                                 f'with {where} {address}')
+    return address
+
+
+def _split_address(address: str, where: str) -> tuple[str, str, int]:
+    m = _ADDRESS.match(address)
+    port = int(m.group(3)) if m else 0
+    if not m or not 1 <= port <= 65535:
+        inline = 'inline or ' if where == '--scheduler' else ''
+        raise ParameterError(f'{where} {address!r}: not {inline}tcp://HOST:PORT (or '
+                             'tls://HOST:PORT; port 1-65535)')
+    return m.group(1), m.group(2).strip('[]'), port
+
+
+@contextlib.contextmanager
+def connect(address: str | None, workers: int | None = None):
+    """An executor of blocks at ``address`` (of :func:`check_executor`): the calling
+    process (:data:`INLINE`), a Dask cluster there, or a local cluster of ``workers``
+    processes (default: one per core); closed on leaving, within bounded time."""
+    if address == INLINE:
+        yield _Inline()
+        return
+    with _DaskClient(address, workers) as client:
+        yield _Dask(client, address)
+
+
+class _Inline:
+    """Blocks evaluated one after the other in this process."""
+
+    workers = 1
+
+    def prepare(self, spec: SweepSpec) -> None:
+        pass
+
+    def results(self, spec: SweepSpec, todo):
+        for block in todo:
+            yield evaluate_block(spec, block)
+
+
+class _Dask:
+    """Blocks as Dask tasks of ``client``'s cluster."""
+
+    def __init__(self, client, address):
+        self.client = client
+        self.workers = len(client.scheduler_info()['workers'])
+        if self.workers == 0:
+            raise ParameterError(f'the Dask cluster at {address} has no workers')
+        self.shared = None
+
+    def prepare(self, spec: SweepSpec) -> None:
+        self.client.run(_warm, spec)     # numba: compiled (or loaded) once per worker
+        self.shared = self.client.scatter(spec, broadcast=True)
+
+    def results(self, spec: SweepSpec, todo):
+        from dask.distributed import as_completed
+        futures = self.client.map(_task, todo, spec=self.shared, pure=False)
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            self.client.cancel(futures)
+
+
+# --- a run ------------------------------------------------------------------------------
 def run_sweep(spec: SweepSpec, out, scheduler: str | None = None,
-              workers: int | None = None, progress=None) -> SweepReport:
+              workers: int | None = None, progress=None, executor=None,
+              notice=None) -> SweepReport:
     """Compute the blocks of ``spec`` not yet in ``out``, store each as it arrives, write
-    ``out/sweep.nc`` at the end (also when interrupted).  ``progress(fraction)`` is called
-    as blocks arrive, with a detail line 'k/N blocks'."""
+    ``out/sweep.nc`` at the end (also when interrupted or failed).
+
+    Parameters
+    ----------
+    scheduler, workers
+        Where the blocks run (:func:`check_executor`), unless ``executor`` (of
+        :func:`connect`) is given.
+    progress : callable, optional
+        ``progress(fraction, detail)`` as blocks arrive ('k/N blocks').
+    notice : callable, optional
+        ``notice(line)`` once for each file of ``blocks/`` that is not a finished block
+        (default: a line on stderr).
+    """
+    if executor is None:
+        address = check_executor(scheduler, workers)
+        SweepStore(out, spec)                 # a directory it may not use: refused first
+        with connect(address, workers) as executor:
+            return run_sweep(spec, out, progress=progress, executor=executor,
+                             notice=notice)
     store = SweepStore(out, spec)
-    store.begin_run()
-    done = store.done()
+    done, problems = store.scan()
+    for line in problems:
+        (notice or _stderr)(line)
     todo = [b for b in range(spec.blocks) if b not in done]
+    store.make_room(todo)
+    store.begin_run()
     tick = _progress(progress, len(done), spec.blocks)
     try:
-        if scheduler == INLINE:
-            report = _inline(spec, store, todo, tick)
-        else:
-            report = _on_dask(spec, store, todo, tick, scheduler, workers)
+        executor.prepare(spec)
+        wall, compute = _compute(spec, store, executor, todo, tick)
+    except BaseException:
+        with contextlib.suppress(ParameterError):   # (the first failure is the one told)
+            store.write_dataset()
+        raise
+    store.write_dataset()
+    return SweepReport(len(todo), len(done), wall, compute, executor.workers, str(store.out))
+
+
+def _compute(spec, store, executor, todo, tick) -> tuple[float, float]:
+    """Evaluate ``todo`` on ``executor``, storing each block: (wall, compute) [s]."""
+    t0, compute = time.perf_counter(), 0.0
+    results = executor.results(spec, todo)
+    try:
+        for result in results:
+            store.save(result)
+            compute += result['compute_s']
+            tick()
     finally:
-        store.write_dataset()
-    report.skipped, report.out = len(done), str(store.out)
-    return report
+        results.close()
+    return time.perf_counter() - t0, compute
+
+
+def _stderr(line: str) -> None:
+    print(f'drill-twin sweep: {line}', file=sys.stderr, flush=True)
 
 
 def _progress(progress, already, total):
@@ -106,44 +259,13 @@ def _progress(progress, already, total):
     return tick
 
 
-def _inline(spec, store, todo, tick) -> SweepReport:
-    t0, compute = time.perf_counter(), 0.0
-    for block in todo:
-        result = evaluate_block(spec, block)
-        store.save(result)
-        compute += result['compute_s']
-        tick()
-    return SweepReport(len(todo), 0, time.perf_counter() - t0, compute, 1)
-
-
-def _on_dask(spec, store, todo, tick, scheduler, workers) -> SweepReport:
-    from dask.distributed import as_completed
-    with _DaskClient(scheduler, workers) as client:
-        n_workers = len(client.scheduler_info()['workers'])
-        if n_workers == 0:
-            raise ParameterError(f'the Dask cluster at {scheduler} has no workers')
-        client.run(_warm, spec)     # numba: compiled (or loaded) once per worker
-        shared = client.scatter(spec, broadcast=True)
-        t0, compute = time.perf_counter(), 0.0
-        futures = client.map(_task, todo, spec=shared, pure=False)
-        try:
-            for future in as_completed(futures):
-                result = future.result()
-                store.save(result)
-                compute += result['compute_s']
-                tick()
-        finally:
-            client.cancel(futures)
-        return SweepReport(len(todo), 0, time.perf_counter() - t0, compute, n_workers)
-
-
 def _task(block: int, spec: SweepSpec):
     return evaluate_block(spec, block)
 
 
 def _warm(spec: SweepSpec) -> None:
     """Compile or load the kernels the sweep uses, in a worker, before its first task."""
-    from ..physics.scenario import scenario_from_dict, with_values
+    from ..config.scenario import scenario_from_dict, with_values
     from ..physics.simulation import Simulation
     if spec.kind == 'linear':
         evaluate_block(spec, 0)
@@ -155,22 +277,52 @@ def _warm(spec: SweepSpec) -> None:
     Simulation.from_scenario(sc).warm_up()
 
 
-class _DaskClient:
-    """A Dask client: of the cluster at ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``), or of a
-    local cluster of ``workers`` single-threaded processes (default: one per core)."""
+# --- Dask -------------------------------------------------------------------------------
+def _greeting(host: str, port: int, address: str) -> None:
+    """Reach ``host:port`` and read the length prefix of Dask's handshake, which its
+    listener sends unasked: a one-line error unless it is plausible."""
+    try:
+        sock = socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S)
+    except OSError as exc:
+        raise ParameterError(f'no Dask scheduler at {address}: '
+                             f'{exc.strerror or exc or type(exc).__name__}') from None
+    with sock:
+        sock.settimeout(GREETING_TIMEOUT_S)
+        head = b''
+        with contextlib.suppress(OSError):
+            while len(head) < 8:
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+    length = struct.unpack('<Q', head)[0] if len(head) == 8 else 0
+    if not 0 < length <= MAX_GREETING_BYTES:
+        said = f'answered {head[:8]!r}' if head else \
+            f'said nothing within {GREETING_TIMEOUT_S:g} s'
+        raise ParameterError(f'{address} is not a Dask scheduler (a server there {said}, '
+                             "not Dask's handshake)")
 
-    def __init__(self, scheduler, workers):
-        self.address = scheduler or os.environ.get('DASK_SCHEDULER_ADDRESS')
+
+class _DaskClient:
+    """A Dask client: of the cluster at ``address``, or of a local cluster of ``workers``
+    single-threaded processes (default: one per core)."""
+
+    def __init__(self, address, workers):
+        self.address = address
         self.workers = workers or os.cpu_count()
         self.cluster = self.client = None
 
     def __enter__(self):
         from dask.distributed import Client, LocalCluster
         if self.address:
+            scheme, host, port = _split_address(self.address, 'the scheduler')
+            if scheme == 'tcp':
+                _greeting(host, port, self.address)
             try:
-                self.client = Client(self.address, timeout='20s')
-            except OSError as exc:
-                raise ParameterError(f'no Dask scheduler at {self.address}: {exc}') from None
+                self.client = Client(self.address, timeout=f'{CLIENT_TIMEOUT_S}s')
+            except Exception as exc:     # distributed fails in many ways: each is one line
+                raise ParameterError(f'no Dask scheduler at {self.address}: '
+                                     f'{type(exc).__name__}: {exc}') from None
             return self.client
         self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                     processes=True, dashboard_address=None,
@@ -183,7 +335,7 @@ class _DaskClient:
         # the shutdown itself, not errors
         logging.getLogger('distributed').setLevel(logging.CRITICAL)
         if self.client is not None:
-            self.client.close()
+            self.client.close(timeout=CLIENT_TIMEOUT_S)
         if self.cluster is not None:
-            self.cluster.close()
+            self.cluster.close(timeout=CLIENT_TIMEOUT_S)
         return False

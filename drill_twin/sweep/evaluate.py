@@ -5,7 +5,7 @@ Linear points: the configuration at the point, linearised (:mod:`drill_twin.stab
 its rightmost roots; along a line of ``x`` the roots of the previous point seed the Newton
 refinement of the next one, as in the stability charts.  Nonlinear points: the
 configuration simulated for ``duration`` and the statistics of
-:func:`drill_twin.physics.statistics.stick_slip_summary` after ``settle``.  A point where
+:func:`drill_twin.analysis.statistics.stick_slip_summary` after ``settle``.  A point where
 the configuration is invalid (no drilling, a rejected value) or the run diverges is NaN
 (``unstable``: -1).
 """
@@ -17,17 +17,13 @@ import time
 
 import numpy as np
 
-from ..physics.parameters import ParameterError
-from ..physics.scenario import scenario_from_dict, with_values
+from ..analysis.statistics import output_series, stick_slip_summary
+from ..config.scenario import scenario_from_dict, with_values
+from ..errors import ParameterError
 from ..physics.simulation import Simulation, SimulationDiverged
-from ..physics.statistics import output_series, stick_slip_summary
-from .spec import SweepSpec
+from .spec import UPSILON_O, SweepSpec
 
-__all__ = ['evaluate_block', 'BlockResult', 'UPSILON_O']
-
-#: virtual key of linear sweeps: the dimensionless penetration rate υ_o, realised by
-#: W_o = n_b λ + 2π υ_o / ω_o (eq. 2.4.5) at each point
-UPSILON_O = 'upsilon_o'
+__all__ = ['evaluate_block', 'evaluate_points', 'BlockResult', 'UPSILON_O']
 
 
 class BlockResult(dict):
@@ -38,15 +34,15 @@ class BlockResult(dict):
 def evaluate_block(spec: SweepSpec, block: int) -> BlockResult:
     """Evaluate the points of ``block`` of ``spec`` (see module docstring)."""
     t0 = time.perf_counter()
-    flats = spec.block_range(block)
-    if spec.kind == 'linear':
-        out = _linear(spec, flats)
-    else:
-        out = _nonlinear(spec, flats)
-    result = BlockResult(out)
+    result = BlockResult(evaluate_points(spec, spec.block_range(block)))
     result['block'] = block
     result['compute_s'] = time.perf_counter() - t0
     return result
+
+
+def evaluate_points(spec: SweepSpec, flats: range) -> dict:
+    """``{output: values}`` at the flat point indices ``flats`` (consecutive) of ``spec``."""
+    return _linear(spec, flats) if spec.kind == 'linear' else _nonlinear(spec, flats)
 
 
 #: scenarios a worker has built, by (configuration as JSON, point values); see _scenario_at

@@ -3,9 +3,17 @@ first statistic of a nonlinear one with the stick-slip boundary (stick fraction 
 probability of stick-slip of a Monte Carlo sweep."""
 from __future__ import annotations
 
+import io
+from pathlib import Path
+
 import numpy as np
 
+from .store import atomic_write
+
 __all__ = ['plot_sweep']
+
+#: resolution of the sweep figure [dots per inch]
+FIGURE_DPI = 110
 
 
 def plot_sweep(ds, path, title: str = '') -> None:
@@ -35,8 +43,10 @@ def plot_sweep(ds, path, title: str = '') -> None:
         ax.set_ylabel(ds.attrs['y_key'])
     ax.set_title(title or f"{ds.attrs['kind']} sweep")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=Path(path).suffix.lstrip('.') or 'png', dpi=FIGURE_DPI)
     plt.close(fig)
+    atomic_write(path, buffer.getvalue())    # (a full disk leaves no half a figure)
 
 
 def _linear(ax, x, y, unstable, abscissa):

@@ -13,9 +13,9 @@ from collections import deque
 
 import numpy as np
 
-from .parameters import ParameterError
-from .scenario import Scenario
-from .simulation import Simulation
+from ..config.scenario import Scenario
+from ..errors import ParameterError
+from ..physics.simulation import Simulation
 
 __all__ = ['DigitalTwin', 'SetpointError', 'aligned_step']
 
@@ -95,7 +95,7 @@ class DigitalTwin:
             self._start_at_rest(start_above_bottom_m)
 
     def _start_at_rest(self, gap_m: float):
-        from .statics import rest_state
+        from ..physics.statics import rest_state
         if not (math.isfinite(gap_m) and 0.0 < gap_m <= 1000.0):
             raise ParameterError(f'start_above_bottom_m {gap_m!r} m outside (0, 1000] m')
         rest_state(self.sim, gap_m / self.scales.depth_m)
@@ -112,6 +112,22 @@ class DigitalTwin:
         return dict(self._settings)
 
     # --- set-points ------------------------------------------------------------
+    #: set-point topic (:mod:`drill_twin.topics`) -> the method that applies it
+    SETPOINTS = {'surface_speed_setpoint': 'set_surface_speed',
+                 'surface_speed_command': 'set_surface_speed',
+                 'hook_load_setpoint': 'set_hook_load',
+                 'block_velocity_setpoint': 'set_block_velocity'}
+
+    def apply(self, name: str, value: float):
+        """Apply the set-point of topic ``name`` (a key of :data:`SETPOINTS`); a value the
+        twin cannot take raises :class:`SetpointError` and the last valid one stays."""
+        try:
+            method = self.SETPOINTS[name]
+        except KeyError:
+            raise SetpointError(f'{name} is not a set-point of the twin (set-points: '
+                                f'{", ".join(self.SETPOINTS)})') from None
+        getattr(self, method)(value)
+
     def set_surface_speed(self, omega_rad_s: float):
         """Surface (motor) speed command [rad/s]; rejected if non-finite, < 0 or absurd."""
         value = self._checked('surface speed', omega_rad_s, 0.0, self.max_surface_speed, 'rad/s')

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..control.soft_torque import SoftTorqueController
 from .digital_twin import DigitalTwin
-from .soft_torque import SoftTorqueController
+from .session import TickSession
 
 __all__ = ['run_closed_loop']
 
@@ -20,20 +21,21 @@ def run_closed_loop(twin: DigitalTwin, controller: SoftTorqueController, rate_hz
     """Run the loop; returns arrays ``time``, ``bit_angular_speed``, ``bit_axial_speed``,
     ``command``, ``stuck`` (SI)."""
     setpoint = twin.surface_speed_setpoint if setpoint_rad_s is None else setpoint_rad_s
-    dt = 1.0 / rate_hz
+    session = TickSession(twin, rate_hz)
+    dt = session.period_s
     n = int(round(duration_s * rate_hz))
     out = {k: np.empty(n) for k in ('time', 'bit_angular_speed', 'bit_axial_speed', 'command',
                                     'stuck')}
     t = twin.time_s
+    m = twin.measurements()
     for i in range(n):
-        m = twin.measurements()
         cmd = controller.update(dt, setpoint, m['surface_torque_Nm'])
-        twin.set_surface_speed(cmd)
+        session.apply('surface_speed_command', cmd)
         out['time'][i] = m['time_s']
         out['bit_angular_speed'][i] = m['bit_angular_speed_rad_s']
         out['bit_axial_speed'][i] = m['bit_axial_speed_m_s']
         out['command'][i] = cmd
         out['stuck'][i] = m['stuck']
         t += dt
-        twin.advance_to(t)
+        m = session.tick(t) or twin.measurements()
     return out

@@ -22,14 +22,11 @@ import difflib
 import math
 from dataclasses import dataclass, field
 
-from .parameters import ParameterError
+from ..errors import ConfigError
+from .yaml_bounds import MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH, MAX_YAML_NODES
 
 __all__ = ['ConfigError', 'Key', 'Section', 'SCHEMA', 'validate', 'REQUIRED',
            'MODEL_TYPES', 'schema_markdown']
-
-
-class ConfigError(ParameterError):
-    """A configuration that does not fit the schema (one line: where, key, value, rule)."""
 
 
 REQUIRED = object()
@@ -289,8 +286,16 @@ def _where(origin: dict, path: str, source: str) -> str:
     return source
 
 
+#: longest value shown in an error line [characters] (a 400-digit number, a 1 MB string
+#: or a list of 20,000 items is cut to its start and its length)
+_SHOWN = 60
+
+
 def _fail(where: str, path: str, value, key: Key | None, problem: str):
-    shown = '' if value is _MISSING else f' = {value!r}'
+    text = '' if value is _MISSING else repr(value)
+    if len(text) > _SHOWN:
+        text = f'{text[:_SHOWN]}...({len(text)} characters)'
+    shown = '' if value is _MISSING else f' = {text}'
     if key is not None and key.unit and key.unit != '1' and value is not _MISSING:
         shown += f' {key.unit}'
     raise ConfigError(f'{where}: {path}{shown}: {problem}')
@@ -308,8 +313,11 @@ def _number(value):
             value = float(value.strip())
         except ValueError:
             return None
-    if isinstance(value, (int, float)) and math.isfinite(value):
-        return value
+    try:  # an int beyond a float's range (10**400) is no number of any key either
+        if isinstance(value, (int, float)) and math.isfinite(value):
+            return value
+    except OverflowError:
+        pass
     return None
 
 
@@ -357,6 +365,8 @@ def _unknown(where, path, name, valid):
     close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6)
     hint = f' (did you mean {(path + "." if path else "") + close[0]}?)' if close else ''
     full = f'{path}.{name}' if path else name
+    if len(full) > _SHOWN:
+        full = f'{full[:_SHOWN]}...({len(full)} characters)'
     raise ConfigError(f'{where}: unknown key {full}{hint}')
 
 
@@ -482,8 +492,16 @@ change dotted keys.  Rules:
   `--set model.type=rgd` works on the FEM file); other unknown `model` keys are
   errors;
 * every error is one line: the file (or the `--set` / `overrides` item), the key,
-  the value with its unit, and what is allowed; `drill-twin config check --config
-  FILE` prints the resolved configuration.
+  the value with its unit (a long value cut to its start and its length), and what
+  is allowed; `drill-twin config check --config FILE` prints the resolved
+  configuration;
+* a file, a scenario file and a `--set` value are read with bounds: at most
+  {bytes} bytes (1 MiB), collections nested at most {depth} levels deep, at most
+  {nodes} YAML nodes with the aliases expanded (an anchor may be reused within that;
+  an alias inside the node it names is refused), integers of at most {digits} digits
+  (write a larger number as a float, `1e25`); a scalar its tag cannot read
+  (`!!int abc`, the date `2001-02-30`) is an error like malformed YAML.  Each bound
+  is one line naming the file, the line and column, and the bound.
 
 Physical consistency is checked when the model is built (inner radius below
 outer, WOB above the wear-flat friction threshold n_b λ W*, a time step inside
@@ -497,4 +515,6 @@ def schema_markdown() -> str:
     """docs/configuration.md: the rules and the schema as a Markdown table."""
     lines = ['| key | meaning | unit | allowed | default |', '|---|---|---|---|---|']
     lines += list(_markdown_rows(SCHEMA, ''))
-    return _INTRO + '\n'.join(lines) + '\n'
+    intro = _INTRO.format(bytes=MAX_YAML_BYTES, depth=MAX_YAML_DEPTH, nodes=MAX_YAML_NODES,
+                          digits=MAX_INT_DIGITS)
+    return intro + '\n'.join(lines) + '\n'

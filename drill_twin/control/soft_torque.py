@@ -20,20 +20,9 @@ from __future__ import annotations
 
 import math
 
-from .parameters import DrillStringSI, ParameterError
+from ..errors import ParameterError
 
-__all__ = ['SoftTorqueController', 'soft_torque_si']
-
-
-def soft_torque_si(system: DrillStringSI, drive_inertia_kgm2: float | None = None) -> dict:
-    """SI tuning from the string: I_DS [kg m²] (the §2.2.1 drive unless given), k_f
-    [N m/rad], c_f [N m s/rad], ξ_opt."""
-    s = system.scales()
-    I_ds = system.drive_inertia_kgm2 if drive_inertia_kgm2 is None else drive_inertia_kgm2
-    xi = math.sqrt(s.inertia_kgm2 / I_ds / 2.0)
-    k_f = I_ds / s.time_s ** 2
-    return {'inertia': I_ds, 'stiffness': k_f, 'damping': 2 * xi * math.sqrt(k_f * I_ds),
-            'xi_opt': xi}
+__all__ = ['SoftTorqueController']
 
 
 class SoftTorqueController:

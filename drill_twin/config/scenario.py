@@ -13,20 +13,21 @@ Two kinds of configuration files live in ``config/``:
     delay 1, κ_d = a - b, n_b ψ = b) and ``kappa_d``; times are in t*.
 
 Overrides use dotted keys (``groups.beta=1.3``, ``model.elements=128``).
-Every key is checked against :mod:`drill_twin.physics.schema` (types, units,
+Every key is checked against :mod:`drill_twin.config.schema` (types, units,
 ranges, required keys, unknown keys with the nearest valid name); every error
 is one line naming the file (or ``--set``), the key, the value and the rule.
 """
 from __future__ import annotations
 
 import copy
+import functools
+import json
 import math
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
-import yaml
-
-from .models import (
+from ..control.tuning import tune_gains
+from ..errors import ConfigError, ParameterError
+from ..physics.models import (
     StringModel,
     axial_chain,
     coupled_chain,
@@ -38,28 +39,15 @@ from .models import (
     rgd,
     rgd_k,
 )
-from .parameters import BitRockGroups, DrillStringSI, ParameterError, Scales, StringSection
-from .reduction import DEFAULT_CUTOFF, reduce_model
-from .schema import DRIVE, ConfigError, validate
-from .top_drive import DriveGains, TopDrive, mode_gains
+from ..physics.parameters import BitRockGroups, DrillStringSI, Scales, StringSection
+from ..physics.reduction import DEFAULT_CUTOFF, reduce_model
+from ..physics.top_drive import DriveGains, TopDrive, mode_gains
+from .lookup import resolve_config
+from .schema import DRIVE, validate
+from .yaml_bounds import MAX_YAML_DEPTH, parse_yaml, read_yaml, shown
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides', 'with_values',
-           'CONFIG_DIR', 'ConfigError', 'resolve_config', 'read_config']
-
-CONFIG_DIR = Path(__file__).resolve().parents[2] / 'config'
-
-
-def config_dirs() -> list[Path]:
-    """Where named configurations are looked up: the source tree, then the
-    installed ``share/drill_twin/config`` (pip data_files or a colcon install)."""
-    import sys
-    dirs = [CONFIG_DIR, Path(sys.prefix) / 'share' / 'drill_twin' / 'config']
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        dirs.append(Path(get_package_share_directory('drill_twin')) / 'config')
-    except Exception:  # noqa: BLE001 - ament index absent or package not installed
-        pass
-    return dirs
+           'read_config']
 
 
 @dataclass
@@ -106,10 +94,15 @@ class Scenario:
 
 
 def _set_key(out: dict, key: str, value, label: str):
+    """Set the dotted ``key`` of ``out`` to ``value`` (sections created as needed); a key
+    deeper than :data:`MAX_YAML_DEPTH` levels is refused, as in a file."""
     node = out
     parts = key.split('.')
     if not key or any(not part for part in parts):
         raise ConfigError(f'{label}: {key!r} is not a dotted key (e.g. model.elements)')
+    if len(parts) > MAX_YAML_DEPTH:
+        raise ConfigError(f'{label}: the key has {len(parts)} levels, more than '
+                          f'{MAX_YAML_DEPTH} (no configuration key is deeper than 4)')
     for i, part in enumerate(parts[:-1]):
         node = node.setdefault(part, {})
         if not isinstance(node, dict):
@@ -120,20 +113,17 @@ def _set_key(out: dict, key: str, value, label: str):
 def apply_overrides(raw: dict, overrides, origin: dict | None = None,
                     label: str = '--set') -> dict:
     """Return a copy of ``raw`` with ``KEY=VALUE`` strings (dotted keys) applied; the
-    values are YAML.  ``origin`` (if given) records ``{key: '--set KEY=VALUE'}`` for error
-    messages."""
+    values are YAML, read with the bounds of a file (:func:`parse_yaml`).  ``origin`` (if
+    given) records ``{key: '--set KEY=VALUE'}`` for error messages."""
     out = copy.deepcopy(raw) if isinstance(raw, dict) else raw
     for item in overrides or ():
         if not isinstance(item, str) or '=' not in item:
-            raise ConfigError(f'{label} {item!r}: not KEY=VALUE (e.g. model.elements=128)')
+            raise ConfigError(f'{label} {shown(item)}: not KEY=VALUE (e.g. '
+                              'model.elements=128)')
         key, value = item.split('=', 1)
         key = key.strip()
-        where = f'{label} {item}'
-        try:
-            parsed = yaml.safe_load(value)
-        except yaml.YAMLError as exc:
-            raise ConfigError(f'{where}: the value is not valid YAML '
-                              f'({_yaml_problem(exc)})') from None
+        where = f'{label} {shown(item, 60)}'
+        parsed = parse_yaml(value, where, 'the value is not valid YAML')
         if not isinstance(out, dict):
             raise ConfigError(f'{where}: the configuration is not a mapping')
         _set_key(out, key, parsed, where)
@@ -207,13 +197,31 @@ def _top_drive(cfg: dict, system, groups: BitRockGroups):
                      d['torque_filter_s'], mode_gains(mode, system, J, bandwidth))
     explicit = ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad', 'torque_feedback_rad_s_Nm')
     if mode == 'stability_tuned' and all(d[k] is None for k in explicit):
-        # the stability module sits above physics: imported here, at use
-        from ..control.tuning import stability_tuned_drive
-        drive = stability_tuned_drive(cfg, drive)
+        drive = drive.with_gains(_stability_tuned_gains(cfg))
     g = drive.gains
     mode_values = (g.proportional_Nms_rad, g.integral_Nm_rad, g.torque_feedback_rad_s_Nm)
     return drive.with_gains(DriveGains(*(v if d[k] is None else d[k]
                                          for k, v in zip(explicit, mode_values))))
+
+
+def _stability_tuned_gains(cfg: dict) -> DriveGains:
+    """The gains that :func:`drill_twin.control.tuning.tune_gains` finds for the string of
+    ``cfg`` with the Soft-Torque controller as its start (computed once per configuration
+    and operating point in a process)."""
+    start = copy.deepcopy(cfg)
+    d = start.setdefault('drive', {})
+    d['controller'] = 'soft_torque'
+    for key in ('proportional_gain_Nms_rad', 'integral_gain_Nm_rad',
+                'torque_feedback_rad_s_Nm'):
+        d.pop(key, None)
+    return _tuned_gains(json.dumps(start, sort_keys=True, default=str))
+
+
+@functools.lru_cache(maxsize=16)
+def _tuned_gains(key: str) -> DriveGains:
+    sc = scenario_from_dict(json.loads(key), 'stability tuning')
+    gains, _ = tune_gains(sc.model, sc.groups, sc.system)
+    return gains
 
 
 def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, drive=None):
@@ -321,7 +329,7 @@ def _check_step(dt: float, model, groups):
 
 def scenario_from_dict(raw: dict, source: str = 'configuration',
                        origin: dict | None = None, check_step: bool = True) -> Scenario:
-    """Validate a configuration mapping (:mod:`~drill_twin.physics.schema`) and build the
+    """Validate a configuration mapping (:mod:`~drill_twin.config.schema`) and build the
     :class:`Scenario`.  Errors are :class:`ConfigError`, one line, prefixed by ``source``.
     ``check_step=False`` skips the check of a configured time step against the RK4
     stability limit (for linear analyses, which never integrate)."""
@@ -397,56 +405,22 @@ def _simulated_model(model: StringModel, sim: dict) -> StringModel | None:
     return reduced
 
 
-def resolve_config(name) -> Path:
-    """The file a ``--config`` value names: a path, or a name in :func:`config_dirs`."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    for folder in config_dirs():
-        for candidate in (folder / path, folder / f'{path}.yaml'):
-            if candidate.is_file():
-                return candidate
-    if path.exists():
-        raise ConfigError(f'{path}: not a file')
-    known = sorted({p.stem for d in config_dirs() if d.is_dir() for p in d.glob('*.yaml')})
-    raise ConfigError(f'{name}: no such configuration file (names in config/: '
-                      f'{", ".join(known)})')
-
-
-def _yaml_problem(exc) -> str:
-    mark = getattr(exc, 'problem_mark', None)
-    problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
-    where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark is not None else ''
-    return ' '.join(f'{where}{problem}'.split())
-
-
 def read_config(path) -> dict:
-    """The YAML mapping of a configuration file (one-line errors)."""
-    path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise ConfigError(f'{path}: cannot read: {exc.strerror or exc}') from None
-    try:
-        text = data.decode('utf-8')
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f'{path}: not a text (UTF-8) file: byte {exc.start} is '
-                          f'{data[exc.start]:#04x}') from None
-    if '\0' in text:
-        raise ConfigError(f'{path}: not a text file (it contains NUL bytes)')
-    try:
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'{path}: malformed YAML ({_yaml_problem(exc)})') from None
+    """The YAML mapping of a configuration file (one-line errors; bounded: see
+    :func:`parse_yaml`)."""
+    raw = read_yaml(path)
     if raw is None:
         raise ConfigError(f'{path}: empty configuration (needs at least units and model)')
     return raw
 
 
-def load_scenario(path, overrides=(), label: str = '--set') -> Scenario:
+def load_scenario(path, overrides=(), label: str = '--set',
+                  check_step: bool = True) -> Scenario:
     """Load a YAML configuration (a path, or a name of a file in ``config/``) with
-    ``KEY=VALUE`` overrides (``label`` names where they came from in error messages)."""
+    ``KEY=VALUE`` overrides (``label`` names where they came from in error messages).
+    The file and the values are read with bounds (:func:`parse_yaml`); ``check_step``
+    as :func:`scenario_from_dict`."""
     path = resolve_config(path)
     origin: dict = {}
     raw = apply_overrides(read_config(path), overrides, origin, label)
-    return scenario_from_dict(raw, str(path), origin)
+    return scenario_from_dict(raw, str(path), origin, check_step=check_step)

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .parameters import ParameterError
-from .scenario import Scenario
-from .simulation import Trajectory
+from ..config.scenario import Scenario
+from ..errors import ParameterError
+from ..physics.simulation import Trajectory
 
 __all__ = ['output_series', 'stick_slip_summary', 'SERIES_UNITS']
 

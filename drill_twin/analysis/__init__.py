@@ -1,0 +1,1 @@
+"""Post-processing of finished runs: stick-slip statistics, output units."""
