@@ -33,10 +33,11 @@ from .runtime import cli as runtime_cli
 from .runtime.digital_twin import SetpointError
 from .stability import cli as stability_cli
 from .sweep import cli as sweep_cli
+from .wells import cli as wells_cli
 
 #: who owns which sub-commands, in the order ``drill-twin -h`` lists them
 PACKAGES = (runtime_cli, config_cli, stability_cli, reproduce_cli, recording_cli,
-            operations_cli, estimation_cli, control_cli, sweep_cli)
+            operations_cli, estimation_cli, control_cli, sweep_cli, wells_cli)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -264,7 +264,17 @@ SIMULATION = Section('simulation', 'run settings', keys=(
         'compatible with the top boundary', choices=('bit', 'all', 'smooth'), default='bit'),
 ), subsections=(PERTURBATION,))
 
-TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, DRIVE, BIT, SIMULATION)
+WELL = Section('well', 'the well path (SI; absent: a vertical well to the string length). '
+               'The torque-and-drag statics use it (drill-twin well; docs/torque_drag.md); '
+               'the dynamics are those of a vertical well so far', units=('si',), keys=(
+    Key('survey', 'str', 'survey file: CSV with columns measured_depth_m, inclination_deg, '
+        'azimuth_deg (a header line, one station per line, the first at 0 m); a path '
+        '(absolute or from the working directory) or a name in config/wells/', default=None),
+    _pos('friction_factor', 'Coulomb friction factor of the string on the wall', '1', 2.0,
+         0.25, low=0.0, open_low=False),
+))
+
+TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, DRIVE, BIT, SIMULATION, WELL)
 SCHEMA = Section('', 'a drill_twin configuration', keys=(
     Key('units', 'choice', 'si: a physical system, SI in and out; dimensionless: the '
         'research groups of ch. 4-5', choices=('si', 'dimensionless'), default=REQUIRED),
