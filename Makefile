@@ -15,7 +15,7 @@ TEST_WORKERS ?= 2
 venv: $(STAMP)
 
 $(STAMP): $(REQS)
-	@echo "make venv: creating $(VENV) and installing the locked dependencies (first time: 2-4 min)"
+	@echo "make venv: installing the locked dependencies into $(VENV) (first time: 2-4 min; later only when a requirement file changed)"
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q -c requirements/constraints.txt \
 		-r requirements/base.txt -r requirements/ros.txt -r requirements/dev.txt

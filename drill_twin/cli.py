@@ -26,6 +26,7 @@ from .control import cli as control_cli
 from .errors import ParameterError
 from .estimation import cli as estimation_cli
 from .io.mcap_reader import RecordingError
+from .opcua import cli as opcua_cli
 from .operations import cli as operations_cli
 from .physics.simulation import SimulationDiverged
 from .reproduce import cli as reproduce_cli
@@ -37,7 +38,7 @@ from .wells import cli as wells_cli
 
 #: who owns which sub-commands, in the order ``drill-twin -h`` lists them
 PACKAGES = (runtime_cli, config_cli, stability_cli, reproduce_cli, recording_cli,
-            operations_cli, estimation_cli, control_cli, sweep_cli, wells_cli)
+            operations_cli, estimation_cli, control_cli, sweep_cli, wells_cli, opcua_cli)
 
 
 class _Parser(argparse.ArgumentParser):

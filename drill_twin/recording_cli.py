@@ -42,6 +42,14 @@ def cmd_mcap(args) -> int:
             except ValueError as exc:
                 raise ParameterError(f'{args.file}: {exc}') from None
         print_summary(out, args.json, width=24)
+    elif args.action == 'plot' and args.log:
+        from .drilling_log import write_log
+        out = args.out or str(Path(args.file).with_name(Path(args.file).stem + '_log'))
+        try:
+            written = write_log(rec, out, title=Path(args.file).name, depth=args.depth)
+        except ValueError as exc:
+            raise ParameterError(f'{args.file}: {exc}') from None
+        print_summary(written, args.json, width=24)
     elif args.action == 'plot':
         if not args.out:
             raise ParameterError('mcap plot needs --out FILE.png')
@@ -119,7 +127,12 @@ def register(sub):
                    'header)')
     s.add_argument('--las', help='export: LAS 2.0 drilling log of the scalar channels')
     s.add_argument('--topics', nargs='+', help='export: only these topics')
-    s.add_argument('--out', help='plot: PNG file')
+    s.add_argument('--out', help='plot: PNG file; with --log: .png, .html, or a stem for both '
+                   '(default: RUN_log.png and RUN_log.html beside the recording)')
+    s.add_argument('--log', action='store_true', help="plot: the driller's log (hook load & "
+                   'WOB, RPM, torque, ROP, stick-slip severity tracks) to PNG and HTML')
+    s.add_argument('--depth', action='store_true', help='plot --log: drilled depth as the '
+                   'index axis instead of time')
     s.add_argument('--json', action='store_true')
     s.set_defaults(func=cmd_mcap)
 

@@ -21,7 +21,7 @@ __all__ = ['QoS', 'Topic', 'TOPICS', 'JOINTS', 'COMMANDS_TOPIC', 'BY_NAME', 'SEN
            'stamp_fields', 'measurement_messages', 'diagnostics_fields', 'clock_fields',
            'FLOAT64', 'MEASUREMENTS', 'PARAMETER_EVENTS', 'parameter_event_fields',
            'parameter_value_fields', 'parameter_value', 'SURFACE_INPUTS', 'ESTIMATE_TOPICS',
-           'RECORDABLE', 'RECORDABLE_BY_NAME']
+           'RECORDABLE', 'RECORDABLE_BY_NAME', 'TF', 'LATCHED', 'SCENE', 'LIVE_ROLES']
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,10 @@ COMMAND = QoS('reliable', 'volatile', 1)
 EVENTS = QoS('reliable', 'volatile', 10)
 #: /parameter_events (rclpy's ``qos_profile_parameter_events``)
 PARAMETER_EVENTS = QoS('reliable', 'volatile', 1000)
+#: /tf (tf2_ros's ``DynamicBroadcasterQoS``)
+TF = QoS('reliable', 'volatile', 100)
+#: /tf_static and the well geometry: sent once, a late joiner still gets them
+LATCHED = QoS('reliable', 'transient_local', 1)
 
 FLOAT64 = 'std_msgs/msg/Float64'
 #: joint names of ``joint_states``: rotational (top drive, bit), axial (block, bit)
@@ -58,7 +62,9 @@ class Topic:
 
     ``role``: ``setpoint`` (into the twin), ``measurement`` (out, every tick),
     ``advisory`` (stability, low rate), ``diagnostics``, ``clock``, ``parameters``
-    (run-time parameter changes, published by rclpy and recorded by the twin).
+    (run-time parameter changes, published by rclpy and recorded by the twin), ``scene``
+    (the 3-D view, a few Hz: :mod:`drill_twin.runtime.scene`), ``geometry`` (the latched
+    part of the 3-D view).
     ``fields(m, stamp)`` maps a measurement dict to message fields (measurements only).
     """
 
@@ -108,6 +114,7 @@ TOPICS = (
     Topic('surface/top_drive_speed', FLOAT64, SENSOR, 'measurement',
           _float('top_drive_speed_rad_s')),
     Topic('surface/torque', FLOAT64, SENSOR, 'measurement', _float('surface_torque_Nm')),
+    Topic('surface/motor_torque', FLOAT64, SENSOR, 'measurement', _float('motor_torque_Nm')),
     Topic('surface/hook_load', FLOAT64, SENSOR, 'measurement', _float('hook_load_N')),
     # the ros2_control vocabulary (stamped): rotational joints rad, rad/s, N m; axial m, m/s, N
     Topic('joint_states', 'sensor_msgs/msg/JointState', SENSOR, 'measurement',
@@ -148,9 +155,18 @@ TOPICS = (
     Topic('/clock', 'rosgraph_msgs/msg/Clock', EVENTS, 'clock'),
     Topic('/parameter_events', 'rcl_interfaces/msg/ParameterEvent', PARAMETER_EVENTS,
           'parameters'),
+    # the 3-D view (drill_twin.runtime.scene): frames well -> top_drive, bit; the string
+    Topic('/tf', 'tf2_msgs/msg/TFMessage', TF, 'scene'),
+    Topic('string/markers', 'visualization_msgs/msg/MarkerArray', EVENTS, 'scene'),
+    Topic('/tf_static', 'tf2_msgs/msg/TFMessage', LATCHED, 'geometry'),
+    Topic('well/markers', 'visualization_msgs/msg/MarkerArray', LATCHED, 'geometry'),
 )
 BY_NAME = {t.name: t for t in TOPICS}
 MEASUREMENTS = tuple(t for t in TOPICS if t.role == 'measurement')
+SCENE = tuple(t for t in TOPICS if t.role in ('scene', 'geometry'))
+#: what the twin publishes (and the live view serves): set-points as applied included
+LIVE_ROLES = ('setpoint', 'measurement', 'advisory', 'diagnostics', 'clock', 'scene',
+              'geometry')
 #: what ``downhole_estimator`` reads (a real rig's topics are remapped onto these)
 SURFACE_INPUTS = ('surface/top_drive_speed', 'surface/torque', 'surface/hook_load',
                   'surface/block_velocity')

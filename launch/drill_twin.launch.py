@@ -9,6 +9,8 @@ By default the run is recorded to ``$ROS_HOME/drill_twin/drill_twin_<UTC time>.m
 ``drill-twin replay run.mcap --resimulate`` reproduces the run; to record other
 topics or another graph, run ``ros2 run drill_twin mcap_recorder``.
 ``estimator:=true`` also starts ``downhole_estimator`` on the twin's surface topics.
+``opcua:=true`` also starts ``opcua_bridge``: the twin as an OPC UA server on
+``opcua_endpoint`` (default ``opc.tcp://127.0.0.1:4840/drill_twin/``; docs/opcua.md).
 """
 import datetime
 import os
@@ -39,6 +41,12 @@ def generate_launch_description():
                               '(docs/control.md)'),
         DeclareLaunchArgument('estimator', default_value='false',
                               description='start downhole_estimator beside the twin'),
+        DeclareLaunchArgument('opcua', default_value='false',
+                              description='start opcua_bridge (OPC UA server) beside the twin'),
+        DeclareLaunchArgument('opcua_endpoint',
+                              default_value='opc.tcp://127.0.0.1:4840/drill_twin/',
+                              description='OPC UA endpoint (not loopback: secured, '
+                              'docs/opcua.md)'),
         Node(package='drill_twin', executable='twin_node', name='drill_twin',
              parameters=[{'config': config, 'real_time_factor': 1.0,
                           'record_path': LaunchConfiguration('record_path')}]),
@@ -49,4 +57,8 @@ def generate_launch_description():
         Node(package='drill_twin', executable='downhole_estimator', name='downhole_estimator',
              parameters=[{'config': config, 'rate_hz': 100.0}],
              condition=IfCondition(LaunchConfiguration('estimator'))),
+        Node(package='drill_twin', executable='opcua_bridge', name='opcua_bridge',
+             parameters=[{'config': config,
+                          'endpoint': LaunchConfiguration('opcua_endpoint')}],
+             condition=IfCondition(LaunchConfiguration('opcua'))),
     ])

@@ -18,6 +18,16 @@ from drill_twin.topics import ESTIMATE_TOPICS, TOPICS  # noqa: E402
 TYPES = sorted({t.type for t in TOPICS + ESTIMATE_TOPICS})
 
 
+def _installed(type_name) -> bool:
+    """rclpy can serialise it (the PyPI ROS wheels have no tf2_msgs: /tf is written by
+    the dynamic serialiser only, its schema from drill_twin/data/ros)."""
+    try:
+        get_message(type_name)
+    except ImportError:
+        return False
+    return True
+
+
 def get_message(type_name):
     pkg, _, name = type_name.split('/')
     return getattr(importlib.import_module(f'{pkg}.msg'), name)
@@ -72,7 +82,8 @@ def _plain(obj):
     return obj
 
 
-@pytest.mark.parametrize('type_name', TYPES)
+@pytest.mark.parametrize('type_name', [t if _installed(t) else pytest.param(
+    t, marks=pytest.mark.skip(reason=f'{t}: message package not installed')) for t in TYPES])
 def test_pinned_serialiser_agrees_with_rclpy(type_name):
     cls = get_message(type_name)
     msg = _sample(cls)

@@ -49,6 +49,11 @@ NOT_HERE = {
                        'against a colcon build of ros2/ros2cli jazzy',
     'ros2 topic pub ': 'needs the ros2 CLI (not on PyPI); tried by hand against a colcon '
                        'build of ros2/ros2cli jazzy',
+    'drill-twin simulate --config rig_fem --duration 600 --live':
+        'ten minutes in real time for a viewer; the live view of simulate is run (short, '
+        'with an independent Foxglove client) by test_live.py',
+    'drill-twin scenario run connection --live': 'a scenario in real time for a viewer; '
+                                                  'the live view is tested by test_live.py',
 }
 #: README lines run by test_readme_ros.py (nodes over DDS)
 NODE_LINES = ('twin_node ', 'soft_torque_node ')

@@ -187,7 +187,7 @@ def test_a_signal_during_construction_exits_cleanly(tmp_path):
     while time.monotonic() < deadline:
         line = cold.stdout.readline()
         lines.append(line)
-        if not line or 'compiling the kernels' in line:
+        if not line or 'compiling the physics kernels' in line:
             break
     cold.send_signal(signal.SIGTERM)
     out = ''.join(lines) + _finish(cold, 60)
@@ -238,3 +238,30 @@ def test_bad_start_parameters_give_one_line_and_exit_2(executable, param, messag
     errors = [line for line in out.splitlines() if 'error' in line.lower()]
     assert proc.returncode == 2, out
     assert 'Traceback' not in out and len(errors) == 1 and message in errors[0], out
+
+
+@pytest.mark.parametrize('executable', ['twin_node', 'soft_torque_node'])
+def test_a_node_leaves_the_graph_when_its_process_ends(executable):
+    """After SIGINT a node's participant announces that it leaves: discovery (what
+    ``ros2 node list`` asks) drops it at once, not when its 20 s lease runs out (the
+    twin, a lifecycle node, lingered for 20 s: rclpy left its state machine, which held
+    the node)."""
+    name = {'twin_node': 'drill_twin', 'soft_torque_node': 'soft_torque'}[executable]
+    proc = _start(executable, 'stability_period_s:=0.0' if executable == 'twin_node'
+                  else 'measurement_timeout_s:=1.0')
+    probe = Probe()
+
+    def listed():
+        return name in {n for n, _ in probe.node.get_node_names_and_namespaces()}
+    try:
+        assert probe.spin_until(listed, 60)
+        proc.send_signal(signal.SIGINT)
+        out = _finish(proc)
+        assert proc.returncode == 0, out[-2000:]
+        left = time.monotonic()
+        assert probe.spin_until(lambda: not listed(), 15)
+        assert time.monotonic() - left < 5.0       # the lease is 20 s
+    finally:
+        probe.close()
+        if proc.poll() is None:
+            proc.kill()

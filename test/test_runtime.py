@@ -161,7 +161,8 @@ def test_settings_tables_ranges_and_checks():
             assert 'number' in check(s, 'abc')
     ro = {s.name for s in TWIN_SETTINGS if s.read_only}
     assert ro == {'config', 'overrides', 'scenario', 'drive_time_constant_s',
-                  'as_fast_as_possible', 'record_path', 'record_chunk_period_s', 'autostart'}
+                  'as_fast_as_possible', 'record_path', 'record_chunk_period_s', 'autostart',
+                  'foxglove_port'}
 
 
 @pytest.mark.slow

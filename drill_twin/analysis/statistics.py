@@ -20,6 +20,7 @@ SERIES_UNITS = {
     'delay': ('s', 't*', 'time_s'),
     'delay_residual': ('rad', 'rad', None),
     'surface_torque': ('N*m', 'C', 'torque_Nm'),
+    'motor_torque': ('N*m', 'C', 'torque_Nm'),
     'surface_speed': ('rad/s', '1/t*', 'inv_time'),
     'top_drive_speed': ('rad/s', '1/t*', 'inv_time'),
     'top_axial_speed': ('m/s', 'd*/t*', 'speed_m_s'),

@@ -7,8 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import ConfigError
+from .yaml_bounds import shown
 
-__all__ = ['CONFIG_DIR', 'config_dirs', 'resolve_config']
+__all__ = ['CONFIG_DIR', 'config_dirs', 'resolve_config', 'is_file']
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / 'config'
 
@@ -29,14 +30,30 @@ def config_dirs() -> list[Path]:
 def resolve_config(name) -> Path:
     """The file a ``--config`` value names: a path, or a name in :func:`config_dirs`."""
     path = Path(name)
-    if path.is_file():
+    if is_file(path):
         return path
     for folder in config_dirs():
         for candidate in (folder / path, folder / f'{path}.yaml'):
-            if candidate.is_file():
+            if is_file(candidate):
                 return candidate
-    if path.exists():
+    if _exists(path):
         raise ConfigError(f'{path}: not a file')
     known = sorted({p.stem for d in config_dirs() if d.is_dir() for p in d.glob('*.yaml')})
-    raise ConfigError(f'{name}: no such configuration file (names in config/: '
+    raise ConfigError(f'{shown(str(name))}: no such configuration file (names in config/: '
                       f'{", ".join(known)})')
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
+def is_file(path: Path) -> bool:
+    """``path.is_file()``, False where the system cannot even look (a name longer than the
+    file system allows, ENAMETOOLONG): the caller then says no such file."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..errors import ConfigError, ParameterError
 from ..physics.well_path import WellPath
-from .lookup import config_dirs
+from .lookup import config_dirs, is_file
+from .yaml_bounds import shown
 
 __all__ = ['read_survey', 'scenario_well', 'resolve_survey', 'MAX_SURVEY_BYTES',
            'MAX_STATIONS']
@@ -31,15 +32,15 @@ MAX_STATIONS = 100_000
 def resolve_survey(name) -> Path:
     """The file a ``well.survey`` value names (see the module docstring)."""
     path = Path(name)
-    if path.is_file():
+    if is_file(path):
         return path
     for folder in config_dirs():
         for candidate in (folder / 'wells' / path, folder / 'wells' / f'{path}.csv'):
-            if candidate.is_file():
+            if is_file(candidate):
                 return candidate
     known = sorted({p.name for d in config_dirs() if (d / 'wells').is_dir()
                     for p in (d / 'wells').glob('*.csv')})
-    raise ConfigError(f'well.survey = {str(name)!r}: no such survey file (in config/wells/: '
+    raise ConfigError(f'well.survey = {shown(str(name))!r}: no such survey file (in config/wells/: '
                       f'{", ".join(known) or "none"})')
 
 

@@ -10,7 +10,8 @@ in the definition's package).  Type hash: the ``RIHS01_...`` string of the type 
 installed ``.json`` type description (what Jazzy's rosbag2 stores as
 ``topic_type_hash``).  Files are looked up in the ``share/<pkg>/msg`` directory of every
 prefix on ``AMENT_PREFIX_PATH``, then in the running interpreter's prefix (where the PyPI
-ROS wheels put them).
+ROS wheels put them), last in ``drill_twin/data/ros`` (``tf2_msgs/msg/TFMessage``, which
+the PyPI wheels lack).
 """
 from __future__ import annotations
 
@@ -46,6 +47,7 @@ def _prefixes():
         if prefix:
             yield Path(prefix)
     yield Path(sys.prefix)
+    yield Path(__file__).resolve().parents[1] / 'data' / 'ros'
 
 
 def find_msg_file(type_name: str) -> Path:

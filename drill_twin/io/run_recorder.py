@@ -229,12 +229,15 @@ class TwinRecorder:
 
 
 def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config: str = '',
-               overrides=(), progress=None, chunk_period_s: float = 0.25, stop=None) -> dict:
-    """Run an SI scenario offline as the twin node would (same ticks, same topics) and
-    record it; ``progress(fraction)`` is called as it goes; ``stop()`` -> True ends the run
-    after the current tick (what a signal handler should set: an exception raised in the
-    middle of a write would leave the writer's indexes inconsistent).  The recording is
-    closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
+               overrides=(), progress=None, chunk_period_s: float = 0.25, stop=None,
+               observe=None) -> dict:
+    """Run an SI scenario offline as the twin node would (same ticks, same topics, the 3-D
+    view included) and record it; ``progress(fraction)`` is called as it goes; ``stop()`` ->
+    True ends the run after the current tick (what a signal handler should set: an exception
+    raised in the middle of a write would leave the writer's indexes inconsistent);
+    ``observe(session)`` is called with the :class:`~drill_twin.runtime.session.TickSession`
+    before the first set-point (the live view attaches its listeners there).  The recording
+    is closed properly in any case.  Returns counts (``stopped``: ended by ``stop``)."""
     from ..runtime.session import TickSession
     if not (rate_hz > 0 and duration_s > 0):
         raise ParameterError(f'need rate_hz > 0 and duration_s > 0, got {rate_hz}, {duration_s}')
@@ -246,6 +249,9 @@ def record_run(scenario, path, duration_s: float, rate_hz: float = 100.0, config
     ticks = int(round(duration_s * rate_hz))
     stopped = False
     try:  # the operator set-points in force, recorded as applied at t = 0
+        if observe is not None:
+            observe(session)
+        session.record_scene()
         session.apply('surface_speed_setpoint', twin.surface_speed_setpoint)
         session.apply('hook_load_setpoint', twin.hook_load_N)
         for k in range(1, ticks + 1):

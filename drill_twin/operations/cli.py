@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -44,8 +45,21 @@ def cmd_scenario(args) -> int:
                                  '`drill-twin scenario list`)')
         timeline = load_timeline(args.file)
         kernels_ready()
+        view = feed = None
+        if args.live is not None:
+            from ..live.run import PacedFeed, live_topics
+            from ..live.server import LiveView
+            view = LiveView(live_topics(), args.live)
+            feed = PacedFeed(view)
+            print(f'drill-twin: live view on {view.url} (Foxglove: Open connection, Foxglove '
+                  'WebSocket); the scenario runs in real time', file=sys.stderr)
         t0 = time.perf_counter()
-        series = run_timeline(timeline, out=args.out)
+        try:
+            series = run_timeline(timeline, out=args.out,
+                                  observe=feed.attach if feed is not None else None)
+        finally:
+            if view is not None:
+                view.close()
         out = _summary(series)
         out['wall_s'] = time.perf_counter() - t0
         if args.out:
@@ -84,4 +98,6 @@ def register(sub):
     s.add_argument('--out', help='run: record to this .mcap file; figures: output directory')
     s.add_argument('--plot', help='run: draw the run to this PNG')
     s.add_argument('--json', action='store_true')
+    from ..runtime.cli import add_live_argument
+    add_live_argument(s)
     s.set_defaults(func=cmd_scenario)

@@ -33,11 +33,14 @@ def build_twin(timeline) -> DigitalTwin:
     return TickSession.aligned_twin(scenario, timeline.rate_hz, start_above_bottom_m=gap)
 
 
-def run_timeline(path_or_timeline, out=None, progress=None, chunk_period_s: float = 0.25):
+def run_timeline(path_or_timeline, out=None, progress=None, chunk_period_s: float = 0.25,
+                 observe=None):
     """Run a scenario file; returns ``{'time_s', series..., 'log': [(t, label)], 'twin'}``.
 
-    ``out``: record the run to this ``.mcap`` file.  ``progress(label)`` is called when a
-    step starts.
+    ``out``: record the run to this ``.mcap`` file (the 3-D view included).
+    ``progress(label)`` is called when a step starts; ``observe(session)`` with the
+    :class:`~drill_twin.runtime.session.TickSession` before the first set-point (the live
+    view attaches its listeners there).
     """
     timeline = path_or_timeline if hasattr(path_or_timeline, 'steps') else \
         load_timeline(path_or_timeline)
@@ -53,7 +56,10 @@ def run_timeline(path_or_timeline, out=None, progress=None, chunk_period_s: floa
     session = TickSession(twin, timeline.rate_hz, recorder)
     rows = {k: [] for k in ('time_s',) + SERIES}
     try:
+        if observe is not None:
+            observe(session)
         if recorder is not None:  # the set-points in force at the start, as applied
+            session.record_scene()
             session.apply_initial_setpoints()
         session.start_scenario(timeline)
         driller, shown = session.driller, 0

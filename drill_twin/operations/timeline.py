@@ -218,13 +218,14 @@ def shipped_scenarios() -> dict:
 
 def _scenario_path(path) -> Path:
     """The file a scenario argument names: a path, or a shipped name."""
+    from ..config.lookup import is_file
     path = Path(path)
-    if path.is_file():
+    if is_file(path):
         return path
     shipped = shipped_scenarios()
     name = path.name[:-5] if path.name.endswith('.yaml') else path.name
     if str(path.parent) != '.' or name not in shipped:
-        raise ConfigError(f'{path}: no such scenario file (shipped: '
+        raise ConfigError(f'{_shown(str(path))}: no such scenario file (shipped: '
                           f'{", ".join(shipped) or "none found"})')
     return shipped[name]
 

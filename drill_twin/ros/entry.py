@@ -17,7 +17,8 @@ import time
 from contextlib import contextmanager
 
 __all__ = ['install_quiet_signals', 'rclpy_took_over', 'interruptible', 'twin_node',
-           'soft_torque_node', 'top_drive_controller', 'mcap_recorder', 'downhole_estimator']
+           'soft_torque_node', 'top_drive_controller', 'mcap_recorder', 'downhole_estimator',
+           'opcua_bridge']
 
 _ROS_HANDLES_SIGNALS = [False]
 _INTERRUPTIBLE = [False]
@@ -59,6 +60,12 @@ def _leave_if_shutdown_stalls():
     import rclpy
     while rclpy.ok():
         time.sleep(0.1)
+    if _INTERRUPTIBLE[0]:
+        # a signal while the node loads or compiles its kernels (numba holds the
+        # interpreter for up to a minute per function, so the Python-level handler would
+        # run only after it): nothing is open yet, nothing to save — leave now.  numba
+        # writes its cache files by rename, so an interrupted compile leaves none half-made
+        os._exit(0)
     time.sleep(SHUTDOWN_GRACE_S)
     print(f'shutdown did not finish within {SHUTDOWN_GRACE_S:g} s of the signal: leaving',
           file=sys.stderr, flush=True)
@@ -109,3 +116,7 @@ def mcap_recorder() -> int:
 
 def downhole_estimator() -> int:
     return _run('drill_twin.ros.estimator_node')
+
+
+def opcua_bridge() -> int:
+    return _run('drill_twin.ros.opcua_bridge')

@@ -7,7 +7,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from ..topics import QoS
 
-__all__ = ['message_class', 'to_message', 'qos_profile']
+__all__ = ['message_class', 'to_message', 'qos_profile', 'available']
 
 
 def message_class(type_name: str):
@@ -15,6 +15,17 @@ def message_class(type_name: str):
     parts = type_name.split('/')
     module = importlib.import_module(f'{parts[0]}.msg')
     return getattr(module, parts[-1])
+
+
+def available(type_name: str) -> bool:
+    """True when the Python message package of ``pkg/msg/Type`` is installed (the PyPI ROS
+    wheels have no ``tf2_msgs``: the twin then records and serves ``/tf`` but does not
+    publish it over DDS)."""
+    try:
+        message_class(type_name)
+    except (ImportError, AttributeError):
+        return False
+    return True
 
 
 def to_message(cls, fields: dict):

@@ -18,6 +18,7 @@ from rosgraph_msgs.msg import Clock
 from ..errors import ParameterError
 from ..io.mcap_reader import Recording
 from ..topics import QoS
+from .messages import available as installed
 from .messages import message_class, qos_profile
 
 __all__ = ['Player', 'offered_qos']
@@ -60,6 +61,11 @@ class Player(Node):
         if missing:
             raise ParameterError(f'{recording.path} has no topic(s) {missing}; it has: '
                              f'{", ".join(sorted(available))}')
+        absent = [t for t in self.topics if not installed(available[t])]
+        if absent:   # e.g. /tf without tf2_msgs (the PyPI ROS wheels): not published
+            self.get_logger().warning(f'not publishing {", ".join(absent)}: message package '
+                                      'not installed')
+            self.topics = [t for t in self.topics if t not in absent]
         qos = {c.topic: offered_qos(c.offered_qos_profiles) for c in recording.channels.values()}
         self.pubs = {t: self.create_publisher(message_class(available[t]), t,
                                               qos_profile(qos[t])) for t in self.topics}

@@ -29,7 +29,7 @@ from ..io.mcap_writer import McapRecorder
 from ..io.run_recorder import package_version, run_metadata
 from ..runtime.settings import RECORDER_SETTINGS, ros_home
 from .common import declare_settings, run_node, say, warn_unknown_overrides
-from .messages import message_class, qos_profile
+from .messages import available, message_class, qos_profile
 
 __all__ = ['RecorderNode', 'main']
 
@@ -59,6 +59,10 @@ class RecorderNode(Node):
             use_sim_time=str(g('use_sim_time').value).lower()))
         for topic in T.RECORDABLE:
             if wanted and topic.name not in wanted:
+                continue
+            if not available(topic.type):   # e.g. tf2_msgs, absent from the PyPI wheels
+                self.get_logger().info(f'not recording {topic.name}: {topic.type} is not '
+                                       'installed')
                 continue
             name = self.resolve_topic_name(topic.name)
             self.create_subscription(

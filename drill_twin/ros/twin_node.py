@@ -33,6 +33,14 @@ and run-time parameter changes at the simulated time they were applied), which
 ``drill-twin replay --resimulate`` reproduces exactly.
 Topics, units, frames and QoS: see the README (the table is
 :data:`drill_twin.topics.TOPICS`).
+
+3-D view: ``/tf`` and ``string/markers`` at a few Hz, ``/tf_static`` and ``well/markers``
+latched (:class:`drill_twin.runtime.scene.StringScene`); without ``tf2_msgs`` installed
+(the PyPI ROS wheels lack it) the tf topics are recorded and served live, not published.
+
+Live view: ``foxglove_port`` > 0 serves every published topic (and the set-points as
+applied) on ``ws://localhost:PORT`` for the Foxglove app
+(:class:`drill_twin.live.server.LiveView`; it never blocks the tick).
 """
 from __future__ import annotations
 
@@ -59,11 +67,12 @@ from ..runtime.arbitration import SpeedArbiter
 from ..runtime.digital_twin import DigitalTwin, aligned_step
 from ..runtime.health import ERROR, WARN, EventWindow, human, worst
 from ..runtime.pacing import Pacer
+from ..runtime.scene import StringScene
 from ..runtime.session import TickSession
 from ..runtime.settings import TWIN_SETTINGS
 from .common import answer_every_transition, declare_settings, run_node, warn_unknown_overrides
 from .entry import interruptible
-from .messages import message_class, qos_profile, to_message
+from .messages import available, message_class, qos_profile, to_message
 
 __all__ = ['TwinNode', 'main', 'SETPOINT_QOS', 'LATCHED_QOS']
 
@@ -115,6 +124,7 @@ class TwinNode(LifecycleNode):
         self.recorder = None
         self.advisor = None
         self.session = None
+        self.live = None
         self.paused = False
         self.active = False
         self._entities = []        # what a configuration created and cleanup destroys
@@ -260,10 +270,10 @@ class TwinNode(LifecycleNode):
                 ('block_velocity_setpoint', Float64, self._on_block, SETPOINT_QOS),
                 (T.COMMANDS_TOPIC, Float64MultiArray, self._on_commands, SETPOINT_QOS)):
             add(self.create_subscription(cls, name, callback, qos))
-        roles = ('measurement', 'advisory') + (('clock',) if self.fast else ())
+        roles = ('measurement', 'advisory', 'scene') + (('clock',) if self.fast else ())
         self.pub = {}
         for t in T.TOPICS:
-            if t.role in roles + ('diagnostics',):
+            if t.role in roles + ('diagnostics', 'geometry') and available(t.type):
                 cls = message_class(t.type)
                 create = (self.create_lifecycle_publisher if t.role in roles
                           else self.create_publisher)
@@ -275,6 +285,10 @@ class TwinNode(LifecycleNode):
         add(self.create_timer(0.1, self._advise))
         add(self.create_timer(1.0, self._publish_diagnostics))
         self._timer = self.create_timer(self._tick_period(), self._tick, autostart=False)
+        self._open_live()
+        for name, fields in self.scene.static_messages(
+                T.stamp_fields(ns=self._stamp_ns(self.twin.time_s))):
+            self._send(name, fields)
         if self.timeline is not None:
             self._start_scenario()
 
@@ -285,6 +299,9 @@ class TwinNode(LifecycleNode):
         if self.recorder is not None:
             self.recorder.close()
             self.recorder = None
+        if self.live is not None:
+            self.live.close()
+            self.live = None
         if self.twin is None:
             return
         timer, self._timer = getattr(self, '_timer', None), None
@@ -300,6 +317,19 @@ class TwinNode(LifecycleNode):
         self._entities = []
         self._set_advisory_period(0.0)
         self.twin = self.session = None
+
+    def _open_live(self):
+        """The Foxglove WebSocket server of this configuration (``foxglove_port`` > 0)."""
+        port = self._param('foxglove_port')
+        if port == 0:
+            return
+        if not 0 < port < 65536:
+            raise ParameterError(f'parameter foxglove_port = {port}: must be 1-65535, or 0 = off')
+        from ..live.server import LiveView
+        roles = set(T.LIVE_ROLES) - (set() if self.fast else {'clock'})
+        self.live = LiveView([t for t in T.TOPICS if t.role in roles], port,
+                             namespace=self.get_namespace())
+        self.get_logger().info(f'live view on {self.live.url} (Foxglove: open connection)')
 
     def _hold_recording(self):
         """Set-points are recorded when simulated time runs; while it is held (inactive,
@@ -331,6 +361,7 @@ class TwinNode(LifecycleNode):
         self.session.on_step = self.get_logger().info
         self.session.on_scenario_error = lambda exc: self.get_logger().error(
             f'scenario stopped: {exc}')
+        self.scene = StringScene(self.twin)
         self.blow_up = ''
         self._last_measurements = None
 
@@ -339,11 +370,15 @@ class TwinNode(LifecycleNode):
 
     # --- inputs ----------------------------------------------------------------------
     def _send(self, name, fields, time_s=None):
-        """Publish on a topic of the interface table and record it."""
-        cls, pub = self.pub[name]
+        """Publish on a topic of the interface table, record it and serve it live."""
         if self.recorder is not None:
             self.recorder.event(name, fields, time_s)
-        pub.publish(to_message(cls, fields))
+        if self.live is not None:
+            self.live.publish(name, fields, self._stamp_ns(self.twin.time_s if time_s is None
+                                                           else time_s))
+        if name in self.pub:     # not a message type this machine has (tf2_msgs)
+            cls, pub = self.pub[name]
+            pub.publish(to_message(cls, fields))
 
     @property
     def driller(self):
@@ -358,6 +393,8 @@ class TwinNode(LifecycleNode):
         """After every set-point the session applied: arbitration, the advisory, and one
         warning for a rejection (the twin keeps its last valid value)."""
         now = time.monotonic()
+        if self.live is not None:
+            self.live.setpoint(name, value, self._stamp_ns(self.twin.time_s))
         if error is not None:
             self.health.add('rejected', now)
             kept = ''
@@ -442,6 +479,8 @@ class TwinNode(LifecycleNode):
         self.session.start_scenario(self.timeline)
         self.get_logger().info(f'scenario {self.timeline.path.name}: '
                                f'{len(self.timeline.steps)} steps')
+        if self.driller.step is not None:       # the first step starts with the driller
+            self.get_logger().info(self.driller.step.label)
 
     def _on_start_scenario(self, request, response):
         if self.twin is None:
@@ -561,13 +600,18 @@ class TwinNode(LifecycleNode):
         return self._ros_now() if stamp is None else stamp
 
     def _publish(self, m):
-        stamp = T.stamp_fields(ns=self._stamp_ns(m['time_s']))
+        stamp_ns = self._stamp_ns(m['time_s'])
+        stamp = T.stamp_fields(ns=stamp_ns)
         messages = T.measurement_messages(m, stamp)
         if self.recorder is not None:  # first: whatever a subscriber got is in the file
             self.recorder.measurements(m, messages=messages)
+        if self.live is not None:
+            self.live.publish_all(messages, stamp_ns)
         for topic, fields in messages:
             cls, pub = self.pub[topic.name]
             pub.publish(to_message(cls, fields))
+        for name, fields in self.scene.messages(m, stamp):   # a few Hz
+            self._send(name, fields, m['time_s'])
         if self.fast:
             self._send('/clock', T.clock_fields(m['time_s']), m['time_s'])
 
@@ -666,7 +710,15 @@ class TwinNode(LifecycleNode):
 
     def destroy_node(self):
         self._release()
-        return super().destroy_node()
+        result = super().destroy_node()
+        # rclpy's LifecycleNode (Jazzy) does not destroy its state machine, which holds the
+        # node's handle: the node, and so the context and its DDS participant, were never
+        # freed before the process left, and discovery listed /drill_twin for the 20 s of
+        # its lease after the twin had exited
+        machine = getattr(self, '_state_machine', None)
+        if machine is not None:
+            machine.destroy_when_not_in_use()
+        return result
 
 
 def main(args=None):

@@ -60,6 +60,8 @@ def cmd_simulate(args) -> int:
         raise ParameterError(f'--rate-hz {args.rate_hz:g}: must be in (0, 10000] Hz')
     kernels_ready()
     progress = Progress('simulating', sys.stderr.isatty() and not args.summary_json)
+    if args.live is not None:
+        return _simulate_live(args, scenario, duration, progress)
     if args.out and args.out.endswith('.mcap'):
         return _simulate_to_mcap(args, scenario, duration, progress)
     series, wall, sim = run_scenario(scenario, duration, progress)
@@ -81,7 +83,40 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _simulate_to_mcap(args, scenario: Scenario, duration, progress) -> int:
+def _simulate_live(args, scenario: Scenario, duration, progress) -> int:
+    """The run in real time, served on ws://localhost:PORT (and recorded with --out
+    x.mcap)."""
+    from ..live.run import PacedFeed, live_topics, run_live
+    from ..live.server import LiveView
+    if not scenario.is_si:
+        raise ParameterError('--live needs an SI configuration (the twin publishes SI)')
+    if args.out and not args.out.endswith('.mcap'):
+        raise ParameterError('--live records only to .mcap (--out run.mcap)')
+    view = LiveView(live_topics(), args.live)
+    print(f'drill-twin: live view on {view.url} (Foxglove: Open connection, Foxglove '
+          f'WebSocket); {duration * scenario.time_unit_s:g} s in real time, Ctrl-C ends it',
+          file=sys.stderr)
+    feed = PacedFeed(view)
+    try:
+        if args.out:
+            return _simulate_to_mcap(args, scenario, duration, progress, observe=feed.attach)
+        stop = threading.Event()
+        previous = {sig: signal.signal(sig, lambda *_: stop.set())
+                    for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            out = run_live(scenario, duration * scenario.time_unit_s, feed, args.rate_hz,
+                           stop=stop.is_set)
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        out['url'] = view.url
+        print_summary(out, args.summary_json)
+        return 130 if out['stopped'] else 0
+    finally:
+        view.close()
+
+
+def _simulate_to_mcap(args, scenario: Scenario, duration, progress, observe=None) -> int:
     """The run as the twin node would publish it, recorded (simulated log time)."""
     from ..io.run_recorder import record_run
     if not scenario.is_si:
@@ -93,7 +128,7 @@ def _simulate_to_mcap(args, scenario: Scenario, duration, progress) -> int:
     try:
         out = record_run(scenario, args.out, duration * scenario.time_unit_s, args.rate_hz,
                          config=args.config, overrides=args.set, progress=progress,
-                         stop=stop.is_set)
+                         stop=stop.is_set, observe=observe)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
@@ -165,6 +200,11 @@ def cmd_demo(args) -> int:
         print(f'plot -> {png}')
     except ImportError:  # pragma: no cover - matplotlib is a hard dependency
         pass
+    from ..drilling_log import write_log
+    from ..io.mcap_reader import open_recording
+    log = write_log(open_recording(rec['path']), out / 'benchmark_fem_log',
+                    title='benchmark_fem')
+    print(f"driller's log -> {log['png']}, {log['html']}")
     print(f'outputs in {out.resolve()}')
     return 0
 
@@ -183,6 +223,20 @@ def cmd_compile(args) -> int:
     return 0
 
 
+def add_live_argument(parser):
+    """``--live [PORT]``: serve the run on ws://localhost:PORT in real time."""
+    from ..live.server import DEFAULT_PORT
+
+    def port(text):
+        value = int(text)
+        if not 0 < value < 65536:
+            raise ValueError(text)
+        return value
+    parser.add_argument('--live', nargs='?', const=DEFAULT_PORT, type=port, metavar='PORT',
+                        help='run in real time and serve it to Foxglove on ws://localhost:PORT '
+                        f'(localhost only; default port {DEFAULT_PORT})')
+
+
 def register(sub):
     """Add ``simulate``, ``demo``, ``compile`` to the ``drill-twin`` sub-parsers ``sub``."""
     s = sub.add_parser('simulate', help='run a configuration')
@@ -196,6 +250,7 @@ def register(sub):
     s.add_argument('--summary-json', action='store_true', help='print one JSON summary')
     s.add_argument('--stats-from', type=float, default=0.0,
                    help='statistics window start, in the configuration time unit')
+    add_live_argument(s)
     s.set_defaults(func=cmd_simulate)
     s = sub.add_parser('demo', help='the make-demo job: benchmark without Soft-Torque, with '
                        'the embedded one, and with the external controller in the loop')

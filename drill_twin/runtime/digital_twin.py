@@ -241,6 +241,7 @@ class DigitalTwin:
             'surface_speed_rad_s': snap['surface_speed'] / s.time_s,
             'top_drive_speed_rad_s': snap['top_drive_speed'] / s.time_s,
             'surface_torque_Nm': snap['surface_torque'] * s.torque_Nm,
+            'motor_torque_Nm': snap['motor_torque'] * s.torque_Nm,
             'hook_load_N': hook,
             'block_velocity_m_s': snap['top_axial_speed'] * s.speed_m_s,
             'stuck': snap['angular_stick'] > 0.5,

@@ -19,6 +19,7 @@ run_closed_loop`) puts a controller between two ticks; a resimulation
 from __future__ import annotations
 
 from ..operations.driller import Driller, ScenarioError
+from ..topics import stamp_fields
 from .digital_twin import DigitalTwin, SetpointError, aligned_step
 
 __all__ = ['TickSession', 'ScenarioError']
@@ -55,6 +56,11 @@ class TickSession:
         #: ``listener(name, value, error)`` after every :meth:`apply` (error: None or the
         #: reason of a rejection); the node logs and arbitrates there
         self.listeners = []
+        #: ``tick_listener(m)`` after every tick with its measurements (the live view)
+        self.tick_listeners = []
+        #: a :class:`~drill_twin.runtime.scene.StringScene` recorded with the measurements
+        #: (:meth:`record_scene`)
+        self.scene = None
         self._last = {}            # the last value applied of each set-point
 
     @staticmethod
@@ -132,7 +138,21 @@ class TickSession:
         m = self.twin.measurements()
         if self.recorder is not None and self.records_measurements:
             self.recorder.measurements(m)
+            if self.scene is not None:       # a few Hz: the 3-D view
+                for name, fields in self.scene.messages(m, stamp_fields(m['time_s'])):
+                    self.recorder.event(name, fields, m['time_s'])
+        for listener in self.tick_listeners:
+            listener(m)
         return m
+
+    def record_scene(self):
+        """Record the 3-D view too (:mod:`drill_twin.runtime.scene`): its latched part now,
+        ``/tf`` and ``string/markers`` with the measurements at a few Hz."""
+        from .scene import StringScene
+        self.scene = StringScene(self.twin)
+        if self.recorder is not None:
+            for name, fields in self.scene.static_messages(stamp_fields(self.twin.time_s)):
+                self.recorder.event(name, fields, self.twin.time_s)
 
     def _tick_scenario(self, period_s: float):
         previous = self.driller.index

@@ -12,7 +12,7 @@ import os
 from dataclasses import dataclass
 
 __all__ = ['Setting', 'TWIN_SETTINGS', 'CONTROLLER_SETTINGS', 'RECORDER_SETTINGS',
-           'ESTIMATOR_SETTINGS', 'check', 'ros_home']
+           'ESTIMATOR_SETTINGS', 'OPCUA_SETTINGS', 'check', 'ros_home']
 
 
 @dataclass(frozen=True)
@@ -76,6 +76,8 @@ TWIN_SETTINGS = (
             'can lose', 's', 0.01, 10.0, read_only=True),
     Setting('autostart', True, 'configure and activate at start-up (false: wait for the '
             'lifecycle transitions, e.g. ros2 lifecycle set)', read_only=True),
+    Setting('foxglove_port', 0, 'serve the live view (Foxglove WebSocket protocol) on '
+            'ws://localhost:PORT (1-65535), localhost only; 0 = off', read_only=True),
 )
 
 CONTROLLER_SETTINGS = (
@@ -140,6 +142,24 @@ ESTIMATOR_SETTINGS = (
             'as corrupt', 'N', 1e-3, 1e10, read_only=True),
     Setting('max_block_speed_m_s', 10.0, 'block velocity samples beyond this either way are '
             'refused as corrupt', 'm/s', 1e-6, 1e3, read_only=True),
+)
+
+OPCUA_SETTINGS = (
+    Setting('endpoint', 'opc.tcp://127.0.0.1:4840/drill_twin/', 'OPC UA endpoint; only '
+            '127.0.0.1/localhost/::1 is served without security (docs/opcua.md)',
+            read_only=True),
+    Setting('security_dir', '', 'server certificate, trusted client certificates and users '
+            '(drill-twin opcua); "" = $ROS_HOME/drill_twin/opcua', read_only=True),
+    Setting('config', 'rig_fem', 'the twin\'s configuration: the set-point ranges and which '
+            'hoisting set-point applies (units: si)', read_only=True),
+    Setting('twin_node', 'drill_twin', 'name of the twin node (its reset, pause and '
+            'start_scenario services)', read_only=True),
+    Setting('max_surface_speed_rad_s', 40.0, 'largest accepted Rotation.Setpoint (as the '
+            'twin\'s parameter)', 'rad/s', 0.1, 100.0, read_only=True),
+    Setting('max_refresh_delay_s', 0.5, 'initial MaxRefreshDelay of each function', 's',
+            0.05, 10.0, read_only=True),
+    Setting('max_torque_Nm', 1.0e5, 'initial Rotation.MaxTorque', 'N m', 0.0, 1.0e6,
+            read_only=True),
 )
 
 
