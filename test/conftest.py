@@ -73,7 +73,8 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.ros)
         if _PROCESS.search(text):
             item.add_marker(pytest.mark.process)
-        if not any(item.get_closest_marker(m) for m in ('ros', 'process', 'slow', 'bench')):
+        if not any(item.get_closest_marker(m)
+                   for m in ('ros', 'process', 'slow', 'bench', 'inputs')):
             item.add_marker(pytest.mark.unit)
 
 

@@ -34,6 +34,9 @@ import yaml
 
 from drill_twin.cli import main
 
+#: a tier of its own: 442 command lines are not the numerics make test-fast is for
+pytestmark = pytest.mark.inputs
+
 CORPUS = Path(__file__).parent / 'data' / 'hostile'
 
 

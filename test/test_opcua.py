@@ -11,6 +11,9 @@ import time
 
 import pytest
 
+#: OPC UA servers and clients over loopback sockets: not the numerics make test-fast is for
+pytestmark = pytest.mark.process
+
 pytest.importorskip('asyncua')
 
 from asyncua import Client, ua  # noqa: E402

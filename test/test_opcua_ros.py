@@ -14,6 +14,9 @@ from pathlib import Path
 
 import pytest
 
+#: the twin and the bridge run as processes: not the numerics make test-fast is for
+pytestmark = pytest.mark.process
+
 pytest.importorskip('asyncua')
 pytest.importorskip('rclpy')
 

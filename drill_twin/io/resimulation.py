@@ -13,7 +13,8 @@ Same package version and configuration => every difference is exactly 0.
 from __future__ import annotations
 
 from ..config.scenario import scenario_from_dict
-from ..runtime.digital_twin import DigitalTwin, SetpointError
+from ..runtime.digital_twin import DigitalTwin
+from ..runtime.session import TickSession
 from ..topics import BY_NAME, MEASUREMENTS, TOPICS, parameter_value
 from .export import flatten
 from .mcap_reader import Recording, RecordingError
@@ -75,6 +76,9 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
     except (ValueError, TypeError, KeyError) as exc:
         raise RecordingError(f'{recording.path}: recorded configuration rejected: {exc}') \
             from None
+    # the recorded set-points and ticks drive the twin through the loop the recording came
+    # from; every tick names its instant (the period given here is never used)
+    session = TickSession(twin, 100.0)
     ns = run.get('namespace', '/')
     spec = {qualified(t.name, ns): t for t in TOPICS if t.role in ('setpoint', 'measurement')}
     spec['/parameter_events'] = BY_NAME['/parameter_events']
@@ -97,16 +101,16 @@ def resimulate(recording: Recording, apply_setpoints: bool = True) -> dict:
         if topic_spec.role == 'setpoint':
             if not apply_setpoints:
                 continue
-            try:
-                twin.apply(topic_spec.name, msg.data)
+            if session.apply(topic_spec.name, msg.data) is None:
                 applied += 1
-            except SetpointError:
+            else:
                 rejected += 1
             continue
-        if topic == first:  # a new tick
+        if topic == first:  # a new tick: as many whole steps as the recording advanced
             steps = round((t_ns * 1e-9 - twin.time_s) / twin.step_s)
-            twin.advance_steps(steps)
-            m = twin.measurements()
+            m = session.tick(twin.time_s + (steps + 0.5) * twin.step_s, max_steps=steps) \
+                if steps > 0 else None
+            m = m if m is not None else twin.measurements()
             time_diff = max(time_diff, abs(t_ns * 1e-9 - twin.time_s))
             expected = {qualified(t.name, ns): t.fields(m, {}) for t in MEASUREMENTS}
             ticks += 1
