@@ -164,6 +164,7 @@ def test_bit_speed_uncertainty_agrees_with_the_error_against_the_truth(
     assert np.mean(np.abs(error) < 3.0 * std) >= 0.9
 
 
+@pytest.mark.slow    # the 250 s benchmark truth run (its fixture, ~20 s) with the studies
 def test_benchmark_sticks_are_detected_at_10_hz(benchmark_stick_slip):
     """The benchmark's stick-slip oscillates at ~4.6 Hz with ~30 ms stick phases: one
     sample per 0.1 s window.  The stuck flag of a sample stands for its period (the

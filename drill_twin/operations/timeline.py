@@ -225,7 +225,7 @@ def _scenario_path(path) -> Path:
     shipped = shipped_scenarios()
     name = path.name[:-5] if path.name.endswith('.yaml') else path.name
     if str(path.parent) != '.' or name not in shipped:
-        raise ConfigError(f'{_shown(str(path))}: no such scenario file (shipped: '
+        raise ConfigError(f'{_shown(str(path), 200)}: no such scenario file (shipped: '
                           f'{", ".join(shipped) or "none found"})')
     return shipped[name]
 
