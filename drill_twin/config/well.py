@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import ConfigError, ParameterError
 from ..physics.well_path import WellPath
 from .lookup import config_dirs, is_file
-from .yaml_bounds import shown
+from .yaml_bounds import read_text, shown
 
 __all__ = ['read_survey', 'scenario_well', 'resolve_survey', 'MAX_SURVEY_BYTES',
            'MAX_STATIONS']
@@ -47,17 +47,7 @@ def resolve_survey(name) -> Path:
 def read_survey(path) -> WellPath:
     """The well path of a survey file (module docstring)."""
     path = Path(path)
-    try:
-        with open(path, 'rb') as f:
-            data = f.read(MAX_SURVEY_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f'{path}: cannot read: {exc.strerror or exc}') from None
-    if len(data) > MAX_SURVEY_BYTES:
-        raise ConfigError(f'{path}: larger than {MAX_SURVEY_BYTES} bytes: not a survey file')
-    try:
-        lines = data.decode('utf-8').splitlines()
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f'{path}: not a text (UTF-8) file: byte {exc.start}') from None
+    lines = read_text(path, MAX_SURVEY_BYTES, 'survey file').splitlines()
     content = [(number, line) for number, line in enumerate(lines, start=1)
                if line.strip() and not line.lstrip().startswith('#')]
     rows = [_station(path, number, line) for number, line in content[1:]]   # after the header

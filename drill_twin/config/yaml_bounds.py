@@ -10,8 +10,9 @@ import yaml
 
 from ..errors import ConfigError
 
-__all__ = ['read_yaml', 'parse_yaml', 'check_yaml_bounds', 'BoundedLoader', 'YamlLimitError',
-           'MAX_YAML_BYTES', 'MAX_YAML_DEPTH', 'MAX_YAML_NODES', 'MAX_INT_DIGITS', 'shown']
+__all__ = ['read_yaml', 'read_text', 'parse_yaml', 'check_yaml_bounds', 'BoundedLoader',
+           'YamlLimitError', 'MAX_YAML_BYTES', 'MAX_YAML_DEPTH', 'MAX_YAML_NODES',
+           'MAX_INT_DIGITS', 'shown']
 
 def _yaml_problem(exc) -> str:
     """``line L, column C: problem (context)`` of a PyYAML error, at most 200
@@ -196,15 +197,22 @@ def parse_yaml(text: str, where: str, malformed: str = 'malformed YAML'):
 def read_yaml(path):
     """The YAML value of a configuration or scenario file (None if empty), bounded as
     :func:`parse_yaml`; errors name the file."""
+    text = read_text(path, MAX_YAML_BYTES, 'configuration or scenario file (1 MiB at most)')
+    return parse_yaml(text, str(path))
+
+
+def read_text(path, max_bytes: int, kind: str) -> str:
+    """The UTF-8 text of file ``path``, at most ``max_bytes`` read: a larger file, bytes
+    that are not UTF-8, NUL bytes or a file that cannot be read are one
+    :class:`ConfigError` line naming the file (``kind``: what the file should have been)."""
     path = Path(path)
     try:
         with open(path, 'rb') as f:
-            data = f.read(MAX_YAML_BYTES + 1)
+            data = f.read(max_bytes + 1)
     except OSError as exc:
         raise ConfigError(f'{path}: cannot read: {exc.strerror or exc}') from None
-    if len(data) > MAX_YAML_BYTES:
-        raise ConfigError(f'{path}: larger than {MAX_YAML_BYTES} bytes (1 MiB): not a '
-                          'configuration or scenario file')
+    if len(data) > max_bytes:
+        raise ConfigError(f'{path}: larger than {max_bytes} bytes: not a {kind}')
     try:
         text = data.decode('utf-8')
     except UnicodeDecodeError as exc:
@@ -212,7 +220,7 @@ def read_yaml(path):
                           f'{data[exc.start]:#04x}') from None
     if '\0' in text:
         raise ConfigError(f'{path}: not a text file (it contains NUL bytes)')
-    return parse_yaml(text, str(path))
+    return text
 
 
 def shown(value, limit: int = 80) -> str:
