@@ -78,7 +78,7 @@ def test_estimator_node_follows_the_twin_from_surface_topics_only(rig):
         counted = _estimator_status(rig)[1]
         for _ in range(5):
             glitch.publish(Float64(data=value))
-            if rig.spin_until(lambda: _estimator_status(rig)[1] > counted, 3.0):
+            if rig.spin_until(lambda c=counted: _estimator_status(rig)[1] > c, 3.0):
                 break
         assert _estimator_status(rig)[1] == counted + 1, value
     level, refused, message = _estimator_status(rig)

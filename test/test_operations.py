@@ -16,8 +16,9 @@ from drill_twin.operations.timeline import load_timeline
 SHIPPED = sorted(p.stem for p in (CONFIG_DIR / 'operations').glob('*.yaml'))
 
 
-def test_the_four_scenario_files_are_shipped():
-    assert SHIPPED == ['connection', 'rpm_ramp', 'startup_from_rest', 'wob_steps']
+def test_the_shipped_scenario_files_are_these():
+    assert SHIPPED == ['connection', 'offbottom_startup_well_b', 'rpm_ramp',
+                       'startup_from_rest', 'wob_steps']
 
 
 @pytest.fixture(scope='module')

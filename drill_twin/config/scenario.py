@@ -25,6 +25,8 @@ import json
 import math
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from ..control.tuning import tune_gains
 from ..errors import ConfigError, ParameterError
 from ..physics.models import (
@@ -44,6 +46,7 @@ from ..physics.reduction import DEFAULT_CUTOFF, reduce_model
 from ..physics.top_drive import DriveGains, TopDrive, mode_gains
 from .lookup import resolve_config
 from .schema import DRIVE, validate
+from .well import wall_of, well_of
 from .yaml_bounds import MAX_YAML_DEPTH, parse_yaml, read_yaml, shown
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_from_dict', 'apply_overrides', 'with_values',
@@ -69,11 +72,23 @@ class Scenario:
     #: Craig–Bampton reduction of a finite-element string (:mod:`~drill_twin.physics.
     #: reduction`), chosen with ``time_step: auto``; linear analyses use ``model``
     simulated_model: StringModel | None = None
+    #: the nodes of a finite-element string in contact with the wall of a deviated well
+    #: (:func:`~drill_twin.physics.wall_contact.pack_wall`), the contact forces those of
+    #: the statics at the operating point's weight on bit (:meth:`wall_at` for another);
+    #: None in a vertical well
+    wall: object | None = None
 
     @property
     def integrated_model(self) -> StringModel:
         """The model :class:`~drill_twin.physics.simulation.Simulation` integrates."""
         return self.simulated_model or self.model
+
+    def wall_at(self, weight_on_bit_N: float):
+        """The wall contact (as ``wall``) with the contact forces of the statics at another
+        weight on bit [N] (0: off bottom); None in a vertical well."""
+        if self.wall is None:
+            return None
+        return wall_of(self.raw, self.system, self.model, self.scales, weight_on_bit_N)
 
     @property
     def is_si(self) -> bool:
@@ -224,7 +239,8 @@ def _tuned_gains(key: str) -> DriveGains:
     return gains
 
 
-def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, drive=None):
+def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, drive=None,
+                 well=None, lumped=False):
     kind = m['type']
     if m.get('axial_top') == 'hoist' and (kind != 'fem' or system is None):
         raise ParameterError('model.axial_top: hoist needs model.type fem and units: si')
@@ -262,13 +278,15 @@ def _build_model(m: dict, groups: BitRockGroups, kappa_d, system, rig=None, driv
         raise ParameterError(f"model.bha_elements = {m['bha_elements']} must be below "
                              f"model.elements = {m['elements']}")
     rig = rig or {}
+    well = well or {}
     return fem_drill_string(
         system, elements=m['elements'], bha_elements=m.get('bha_elements'),
         theta_u=m['theta_u'], theta_phi=m['theta_phi'], eta_u=m['eta_u'],
         eta_phi=m['eta_phi'], top_drive=m['top_drive'], drive=drive,
         axial_top=m.get('axial_top') or 'hook_load',
         block_mass_kg=rig.get('block_mass_kg', 20000.0),
-        line_stiffness_N_m=rig.get('line_stiffness_N_m', 2.5e7))
+        line_stiffness_N_m=rig.get('line_stiffness_N_m', 2.5e7), lumped=lumped,
+        mud_damping_N_s_m2=well.get('mud_damping_N_s_m2', 0.0) if well.get('survey') else 0.0)
 
 
 def _impedances(m: dict, system) -> dict:
@@ -355,9 +373,12 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
             dur, rec = sim['duration'], sim['record_interval']
         drive = _top_drive(cfg, system, groups) \
             if cfg['model'].get('top_drive') == 'motor' and system is not None else None
-        model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive)
-        # linear analyses (check_step False) never integrate: no reduction to build
-        simulated = _simulated_model(model, sim) if check_step else None
+        model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive,
+                             cfg.get('well'), lumped=_rubs(cfg, system))
+        wall = _wall(cfg, system, model, scales, groups)
+        # linear analyses (check_step False) never integrate: no reduction to build; the
+        # wall's friction acts on the nodes, which a reduction does not keep
+        simulated = _simulated_model(model, sim) if check_step and wall is None else None
         if sim['time_step'] == 'auto':  # 80 % of the RK4 limit, at most 5e-3
             dt = min(0.8 * max_stable_step(simulated or model, cap=5e-3 / 0.8),
                      0.25 * groups.min_delay)
@@ -373,7 +394,29 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
                     record_interval=max(rec, dt),
                     initial_perturbation=dict(sim['initial_perturbation']),
                     perturb_where=sim['perturb'], scales=scales, system=system,
-                    kappa_d=kappa_d, raw=cfg, simulated_model=simulated)
+                    kappa_d=kappa_d, raw=cfg, simulated_model=simulated, wall=wall)
+
+
+def _rubs(cfg, system) -> bool:
+    """The string of ``cfg`` touches the wall somewhere: a survey that leaves the vertical
+    above the bit, and friction (its finite elements then have lumped masses)."""
+    well = cfg.get('well') or {}
+    if system is None or well.get('survey') is None or not well.get('friction_factor', 0.25):
+        return False
+    path = well_of(cfg, system)
+    stations = np.searchsorted(path.measured_depth_m, system.total_length_m) + 1
+    return bool(np.any(path.inclination_rad[:stations] > 0.0))   # to the leg of the bit
+
+
+def _wall(cfg, system, model, scales, groups):
+    """The wall contact of a finite-element string in the configured well (None: vertical
+    or frictionless); the statics at the operating point's weight on bit."""
+    if not _rubs(cfg, system):
+        return None
+    if model.element_lengths_m is None:
+        raise ParameterError(f"well.survey: model.type {cfg['model']['type']} has no nodes for "
+                             "the wall's friction in a deviated well; use model.type fem")
+    return wall_of(cfg, system, model, scales, groups.W_o * scales.force_N)
 
 
 #: a reduction that keeps more than this fraction of the DOFs is not worth its truncation:

@@ -265,13 +265,18 @@ SIMULATION = Section('simulation', 'run settings', keys=(
 ), subsections=(PERTURBATION,))
 
 WELL = Section('well', 'the well path (SI; absent: a vertical well to the string length). '
-               'The torque-and-drag statics use it (drill-twin well; docs/torque_drag.md); '
-               'the dynamics are those of a vertical well so far', units=('si',), keys=(
+               'The torque-and-drag statics use it (drill-twin well; docs/torque_drag.md), '
+               'and a finite-element string in it feels the wall\'s Coulomb friction at every '
+               'node (docs/physics.md §9)', units=('si',), keys=(
     Key('survey', 'str', 'survey file: CSV with columns measured_depth_m, inclination_deg, '
         'azimuth_deg (a header line, one station per line, the first at 0 m); a path '
         '(absolute or from the working directory) or a name in config/wells/', default=None),
-    _pos('friction_factor', 'Coulomb friction factor of the string on the wall', '1', 2.0,
-         0.25, low=0.0, open_low=False),
+    _pos('friction_factor', 'Coulomb friction factor of the string on the wall (the static '
+         'coefficient μ_s of the dynamics)', '1', 2.0, 0.25, low=0.0, open_low=False),
+    _pos('dynamic_friction_ratio', 'sliding over static friction coefficient μ_d/μ_s of the '
+         'dynamics', '1', 1.0, 1.0, open_low=True),
+    _pos('mud_damping_N_s_m2', "the mud's viscous drag on the string per unit length and unit "
+         'sliding speed (axially c, torsionally c r²)', 'N*s/m^2', 1e5, 0.0, open_low=False),
 ))
 
 TOP = (MODEL, DRILL_STRING, OPERATING_POINT, GROUPS, RIG, DRIVE, BIT, SIMULATION, WELL)

@@ -16,12 +16,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, ParameterError
+from ..physics.wall_contact import node_contact, pack_wall
 from ..physics.well_path import WellPath
 from .lookup import config_dirs, is_file
 from .yaml_bounds import read_text, shown
 
-__all__ = ['read_survey', 'scenario_well', 'resolve_survey', 'MAX_SURVEY_BYTES',
-           'MAX_STATIONS']
+__all__ = ['read_survey', 'scenario_well', 'resolve_survey', 'well_of', 'wall_of',
+           'MAX_SURVEY_BYTES', 'MAX_STATIONS']
 
 #: largest survey file read [bytes] and most stations (a station every 1 m over 20 km is
 #: 20,000 lines of ~30 bytes)
@@ -77,8 +78,14 @@ def _station(path: Path, number: int, line: str) -> tuple:
 def scenario_well(scenario) -> WellPath:
     """The well path of an SI scenario: its ``well.survey``, else the vertical well to the
     string's length.  A survey shorter than the string is refused."""
-    length = scenario.system.total_length_m
-    survey = (scenario.raw.get('well') or {}).get('survey')
+    return well_of(scenario.raw, scenario.system)
+
+
+def well_of(cfg: dict, system) -> WellPath:
+    """The well path of a resolved SI configuration ``cfg`` for the string ``system``
+    (:func:`scenario_well`)."""
+    length = system.total_length_m
+    survey = (cfg.get('well') or {}).get('survey')
     if survey is None:
         return WellPath.vertical(length)
     path = read_survey(resolve_survey(survey))
@@ -86,3 +93,23 @@ def scenario_well(scenario) -> WellPath:
         raise ConfigError(f'well.survey {survey}: ends at {path.total_depth_m:g} m, above the '
                           f'bit of the {length:g} m string')
     return path
+
+
+def wall_of(cfg: dict, system, model, scales, weight_on_bit_N: float = 0.0):
+    """The kernel's wall array (:func:`~drill_twin.physics.wall_contact.pack_wall`) of a
+    finite-element ``model`` in the configured well, or None in a vertical well (no
+    survey) or without friction.  The contact forces are the statics' of the string
+    rotating in place at ``weight_on_bit_N`` [N] (docs/physics.md §9)."""
+    well = cfg.get('well') or {}
+    if well.get('survey') is None:
+        return None
+    mu_s = well.get('friction_factor', 0.25)
+    if mu_s == 0.0:
+        return None
+    path = well_of(cfg, system)
+    n, r = node_contact(path, system.sections, model.element_lengths_m,
+                        system.mud_density_kg_m3, weight_on_bit_N)
+    nodes = len(model.element_lengths_m) + 1
+    return pack_wall(n, r, mu_s, mu_s * well.get('dynamic_friction_ratio', 1.0),
+                     model.axial.mass[1], model.torsional.mass[1],
+                     nodes - model.axial.n, nodes - model.torsional.n, scales)

@@ -27,6 +27,11 @@ from ..errors import ParameterError
 __all__ = ['Autodriller', 'Driller', 'ScenarioError']
 
 
+#: a first-order speed change (``rotate`` with ``time_constant_s``) lasts this many time
+#: constants
+FIRST_ORDER_SPAN = 5.0
+
+
 class ScenarioError(ParameterError):
     """A step that cannot be done (e.g. tag bottom with no block), or timed out."""
 
@@ -150,10 +155,11 @@ class Driller:
 
     # --- step starts -------------------------------------------------------------------
     def _start_rotate(self, p):
-        self._ramp = (self.twin.surface_speed_setpoint, p['speed_rad_s'], p['ramp_s'])
+        self._ramp = (self.twin.surface_speed_setpoint, p['speed_rad_s'], p['ramp_s'],
+                      p.get('time_constant_s', 0.0))
 
     def _start_stop_rotary(self, p):
-        self._ramp = (self.twin.surface_speed_setpoint, 0.0, p['ramp_s'])
+        self._ramp = (self.twin.surface_speed_setpoint, 0.0, p['ramp_s'], 0.0)
 
     def _start_tag_bottom(self, p):
         self.wob_target = None
@@ -188,10 +194,14 @@ class Driller:
         m = self.twin.peek()
         finished = False
         if step.action in ('rotate', 'stop_rotary'):
-            a, b, dur = self._ramp
-            frac = 1.0 if dur <= 0 else min(self.elapsed / dur, 1.0)
+            a, b, dur, lag = self._ramp
+            if lag > 0.0:               # first order: exp(-t/lag) of the way left
+                finished = self.elapsed >= FIRST_ORDER_SPAN * lag
+                frac = 1.0 if finished else 1.0 - math.exp(-self.elapsed / lag)
+            else:                       # linear over dur
+                frac = 1.0 if dur <= 0 else min(self.elapsed / dur, 1.0)
+                finished = frac >= 1.0
             self.apply('surface_speed_setpoint', a + (b - a) * frac)
-            finished = frac >= 1.0
         elif step.action in ('wait', 'drill'):
             finished = self.elapsed >= p['for_s']
         elif step.action == 'tag_bottom':

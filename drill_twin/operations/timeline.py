@@ -19,6 +19,8 @@ A scenario is a YAML mapping::
 Actions (SI; ``rpm`` is accepted beside ``speed_rad_s``, ``wob_kN`` beside ``wob_N``):
 
 ``rotate``      ramp the surface speed to ``speed_rad_s``/``rpm`` over ``ramp_s``
+                (linear), or with ``time_constant_s`` (first order: the step lasts five
+                time constants, the set-point then within 0.7 % of its target)
 ``stop_rotary`` ramp the surface speed to 0 over ``ramp_s``
 ``wait``        hold everything for ``for_s`` (``drill`` is the same word on bottom)
 ``tag_bottom``  lower the block at ``speed_m_s`` until a blade touches the rock, then
@@ -47,7 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ConfigError
-from .driller import ScenarioError
+from .driller import FIRST_ORDER_SPAN, ScenarioError
 
 __all__ = ['shipped_scenarios', 'Step', 'Timeline', 'load_timeline', 'parse_timeline',
            'check_configuration', 'ACTIONS', 'RPM',
@@ -67,7 +69,7 @@ MAX_RUN_TICKS = 1_000_000
 #: action -> {parameter: (unit, low, high, default)}; default None = required
 ACTIONS = {
     'rotate': {'speed_rad_s': ('rad/s', 0.0, 100.0, None), 'rpm': ('rpm', 0.0, 1000.0, None),
-               'ramp_s': ('s', 0.0, 3600.0, 0.0)},
+               'ramp_s': ('s', 0.0, 3600.0, 0.0), 'time_constant_s': ('s', 0.0, 600.0, 0.0)},
     'stop_rotary': {'ramp_s': ('s', 0.0, 3600.0, 0.0)},
     'wait': {'for_s': ('s', 0.0, MAX_STEP_S, None)},
     'drill': {'for_s': ('s', 0.0, MAX_STEP_S, None)},
@@ -185,13 +187,19 @@ def _step(where, index, item) -> Step:
             also = f' (or {alias})' if alias else ''
             raise ConfigError(f'{where}: steps[{index}].{action} needs {key}{also} [{unit}]')
         out[key] = default
+    if out.get('ramp_s', 0.0) > 0.0 and out.get('time_constant_s', 0.0) > 0.0:
+        raise ConfigError(f'{where}: steps[{index}].{action}: give ramp_s (linear) or '
+                          'time_constant_s (first order), not both')
     return Step(action, out, index)
 
 
 def _ticks(step: Step, rate_hz: float) -> int:
     """Most control ticks ``step`` can take at ``rate_hz`` (at least one)."""
     longest = _LONGEST[step.action]
-    return max(1, math.ceil(step.params[longest] * rate_hz)) if longest else 1
+    seconds = step.params[longest] if longest else 0.0
+    if step.action == 'rotate':
+        seconds = max(seconds, FIRST_ORDER_SPAN * step.params['time_constant_s'])
+    return max(1, math.ceil(seconds * rate_hz))
 
 
 def _check_length(where, steps, rate_hz):

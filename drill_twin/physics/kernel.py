@@ -21,6 +21,13 @@ Method (one integrator for every model)
 * The depth of cut comes from the bottom-hole surface
   (:mod:`drill_twin.physics.bottom_surface`), written after every accepted step
   from the step's interpolant of the bit motion.
+* The wall's Coulomb friction on the nodes of a string in a deviated well
+  (``Model.wall``; none in a vertical well, whose steps are then those above, bit for
+  bit) is a set-valued law at every node: after the step, each node's velocity takes the
+  implicit (Moreau–Jean) impulse of the step in closed form
+  (:func:`~drill_twin.physics.wall_law.project_node`), its position the trapezoidal
+  share of it, and the right-hand side is evaluated again.  Lie splitting: first order
+  in the step where a node is in contact (docs/physics.md §9).
 
 Data: two named tuples, and one scratch array.  :class:`Model` is what the run is made
 of (constant while it runs: the law, the top's couplings, the packed chains, the
@@ -52,6 +59,7 @@ from .layout import (
     AXIAL,
     CHAIN,
     CHAIN_FORMS,
+    CONTACT,
     COUNTER,
     DRIVE,
     FORM,
@@ -66,11 +74,13 @@ from .layout import (
     SWITCH,
     TIME,
     TRIPLE,
+    WALL,
     BitMotion,
     indices,
     state_layout,
 )
 from .time_history import push_sample, sample_at_time
+from .wall_law import project_node
 
 __all__ = ['Law', 'Top', 'Model', 'State', 'Recording', 'advance', 'snapshot', 'rhs',
            'RECORD_CHANNELS']
@@ -131,14 +141,17 @@ class Top(NamedTuple):
 class Model(NamedTuple):
     """What a run is made of, constant while it runs: the bit/rock :class:`Law`, the
     :class:`Top` couplings, the packed axial and torsional chains
-    (:func:`~drill_twin.physics.chain.pack_chain`) and the bottom surface's geometry
-    (:data:`~drill_twin.physics.layout.GEOM`)."""
+    (:func:`~drill_twin.physics.chain.pack_chain`), the bottom surface's geometry
+    (:data:`~drill_twin.physics.layout.GEOM`) and the nodes in contact with the wall
+    (:data:`~drill_twin.physics.layout.WALL` rows, one column per node; no columns in a
+    vertical well)."""
 
     law: Law
     top: Top
     axial: np.ndarray
     torsional: np.ndarray
     geom: np.ndarray
+    wall: np.ndarray
 
 
 class State(NamedTuple):
@@ -146,7 +159,8 @@ class State(NamedTuple):
     layout`): the clock (``TIME``), the state vector (``state_layout``), the interface
     mode (``MODE``, int), the run-time inputs (``INPUT``), the bottom surface (``SURFACE``
     rows), the delayed-signal ring and its bookkeeping (``RING``, ``HISTORY``, int), the
-    counters (``COUNTER``, int) and the end of the initial function (``START``)."""
+    counters (``COUNTER``, int), the end of the initial function (``START``) and each
+    wall node's state (``CONTACT``, int, one per column of ``Model.wall``)."""
 
     time: np.ndarray
     x: np.ndarray
@@ -157,6 +171,7 @@ class State(NamedTuple):
     history_meta: np.ndarray
     counters: np.ndarray
     start: np.ndarray
+    wall: np.ndarray
 
 
 class Recording(NamedTuple):
@@ -711,6 +726,45 @@ def _step(tau, h, m, s, work):
 
 
 @kernel_jit
+def _wall(h, m, s):
+    """The wall's friction impulse of a step of size ``h`` on every node of ``m.wall``
+    (docs/physics.md §9, eqs 9.4-9.8; the bit node only while no blade is on the rock):
+    the node's total velocity (axial, and rim speed ρ ω)
+    is projected by :func:`~drill_twin.physics.wall_law.project_node`, and its position
+    moves by half a step of the velocity change (the trapezoidal rule of the impulse's
+    constant force: a stuck node does not creep)."""
+    na = m.axial.shape[1]
+    L = state_layout(na, m.torsional.shape[1])
+    wall, x, contact = m.wall, s.x, s.wall
+    upsilon_o, omega_o = m.top.upsilon_o, m.top.omega_o
+    on_bottom = _any_contact(s.mode, m.law.offsets.size)
+    for j in range(wall.shape[1]):
+        ia = int(wall[WALL.axial_dof, j])
+        it = int(wall[WALL.torsional_dof, j])
+        if ia == na - 1 and on_bottom:
+            continue            # a blade on the rock: the bit's own law holds the bit
+        rho = wall[WALL.radius, j]
+        m_a = wall[WALL.axial_mass, j]
+        m_t = wall[WALL.tangential_mass, j]
+        slide = h * wall[WALL.dynamic, j]
+        hold = h * wall[WALL.static, j] if contact[j] == CONTACT.stick else slide
+        y_a = upsilon_o + x[L.v + ia]
+        y_t = rho * (omega_o + x[L.omega + it])
+        new_a, new_t, stuck = project_node(m_a * y_a, m_t * y_t, m_a, m_t, hold, slide)
+        contact[j] = CONTACT.stick if stuck else CONTACT.slide
+        if stuck:               # exactly at rest: total velocity zero
+            dv, dw = -y_a, -y_t / rho
+            x[L.v + ia] = -upsilon_o
+            x[L.omega + it] = -omega_o
+        else:
+            dv, dw = new_a - y_a, (new_t - y_t) / rho
+            x[L.v + ia] += dv
+            x[L.omega + it] += dw
+        x[L.u + ia] += 0.5 * h * dv
+        x[L.phi + it] += 0.5 * h * dw
+
+
+@kernel_jit
 def _write_record(row, evaluated, m, s, work):
     """Fill one record row (:data:`~drill_twin.physics.layout.RECORD`) from the current
     state.  ``evaluated``: the aux values already belong to this state (every step ends
@@ -802,8 +856,12 @@ def advance(n_steps, h, m, s, rec):
     if m.top.drive_tau <= 0.0:  # stiff speed drive: the motor speed is the command
         x[L.drive + DRIVE.speed] = s.inputs[INPUT.speed_command] - m.top.omega_o
     rhs(tau, x, w.k1, m, s, work)
+    walls = m.wall.shape[1] > 0
     for _ in range(n_steps):
         tau = _step(tau, h, m, s, work)
+        if walls:
+            _wall(h, m, s)
+            rhs(tau, x, w.k1, m, s, work)
         s.time[TIME.now] = tau
         s.counters[COUNTER.steps] += 1
         for i in range(n):

@@ -22,7 +22,8 @@ from .jit import kernel_jit
 
 __all__ = ['indices', 'offsets', 'MODE', 'ANGULAR', 'AXIAL', 'SWITCH', 'INPUT', 'COUNTER', 'STATUS',
            'AUX', 'CHAIN', 'TRIPLE', 'FORM', 'SURFACE', 'READ', 'GEOM', 'SIGNAL', 'RING', 'HISTORY',
-           'DRIVE', 'START', 'TIME', 'RECORD', 'RECORD_CHANNELS', 'CHAIN_FORMS',
+           'DRIVE', 'START', 'TIME', 'RECORD', 'RECORD_CHANNELS', 'CHAIN_FORMS', 'WALL',
+           'CONTACT',
            'BitMotion', 'StateLayout', 'state_layout']
 
 
@@ -98,6 +99,15 @@ DRIVE = indices('Drive', ('angle', 'speed', 'block', 'integral', 'torque_referen
 #: the bit's motion at the end of the initial function (a perturbation jumps from it):
 #: position, velocity, angle, speed, and whether the jump is still to be written
 START = indices('Start', ('position', 'velocity', 'angle', 'speed', 'pending'))
+#: rows of the wall-contact array (one column per string node that touches the wall,
+#: :mod:`~drill_twin.physics.wall_contact`): the node's axial and torsional DOF, its static
+#: and dynamic friction capacity μ_s n, μ_d n (axial force units M d*/t*²), its contact
+#: radius ρ = r/d*, and the masses of its sliding velocity (axial lumped mass; tangential
+#: mass κ m_t/ρ², κ = C t*²/(M d*²)) — docs/physics.md §9
+WALL = indices('Wall', ('axial_dof', 'torsional_dof', 'static', 'dynamic', 'radius',
+                        'axial_mass', 'tangential_mass'))
+#: values of the per-node wall state (int array): the node slides, or sticks to the wall
+CONTACT = indices('Contact', ('slide', 'stick'))
 #: the run's clock: time and the accumulated time with the bit stuck angularly [t*]
 TIME = indices('Time', ('now', 'stuck'))
 #: the recorded channels, one row per recorded step, in this order

@@ -153,8 +153,9 @@ def lumped_chain(masses, springs, damping=None, top_fixed=True) -> Chain:
 
 
 def fem_chain(element_lengths, stiffness_per_length, mass_per_length, eta, theta,
-              top_fixed, top_mass=0.0, top_spring=0.0, top_dashpot=0.0) -> Chain:
-    """Linear finite elements with consistent mass and Rayleigh damping.
+              top_fixed, top_mass=0.0, top_spring=0.0, top_dashpot=0.0,
+              lumped=False, node_damping=None) -> Chain:
+    """Linear finite elements with consistent (or lumped) mass and Rayleigh damping.
 
     Parameters
     ----------
@@ -172,6 +173,13 @@ def fem_chain(element_lengths, stiffness_per_length, mass_per_length, eta, theta
     top_mass, top_spring, top_dashpot : float
         Extra lumped mass on the top node and a spring/dash-pot tying it to
         the prescribed motion (the Soft-Torque drive).  Only for a free top.
+    lumped : bool
+        The row-sum (lumped) mass ``ρAh/2 [[1,0],[0,1]]`` per element instead of the
+        consistent one: a diagonal mass, so that the wall's friction at a node acts on
+        that node alone (docs/physics.md §9).
+    node_damping : array (n_el + 1,), optional
+        Viscous damping of every node (the mud's, per node: c ℓ_i), added to the
+        diagonal of C.
     """
     h = np.asarray(element_lengths, float)
     ea = np.asarray(stiffness_per_length, float)
@@ -183,9 +191,12 @@ def fem_chain(element_lengths, stiffness_per_length, mass_per_length, eta, theta
         ke = ea[e] / h[e]
         me = ra[e] * h[e] / 6.0
         K[e:e + 2, e:e + 2] += ke * np.array([[1.0, -1.0], [-1.0, 1.0]])
-        M[e:e + 2, e:e + 2] += me * np.array([[2.0, 1.0], [1.0, 2.0]])
+        M[e:e + 2, e:e + 2] += me * (np.array([[3.0, 0.0], [0.0, 3.0]]) if lumped
+                                     else np.array([[2.0, 1.0], [1.0, 2.0]]))
     M[0, 0] += top_mass
     C = eta * M + theta * K
+    if node_damping is not None:
+        C += np.diag(np.asarray(node_damping, float))
     K[0, 0] += top_spring
     C[0, 0] += top_dashpot
     if top_fixed:
@@ -296,14 +307,19 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
                      theta_u: float = 5e-4, theta_phi: float = 1e-4, eta_u: float = 0.0,
                      eta_phi: float = 0.0, top_drive: str = 'speed',
                      axial_top: str = 'hook_load', block_mass_kg: float = 0.0,
-                     line_stiffness_N_m: float = 0.0, drive=None) -> StringModel:
+                     line_stiffness_N_m: float = 0.0, drive=None, lumped: bool = False,
+                     mud_damping_N_s_m2: float = 0.0) -> StringModel:
     """Finite-element drill string of App. A / §3.2: every section of ``system`` meshed
     with linear elements of its own EA, GJ, ρA, ρJ.
 
     Axial top: ``'hook_load'`` (constant hook load, free node), ``'velocity'``
     (imposed block motion, node eliminated) or ``'hoist'`` (free node carrying the
     travelling block and hook mass on the drill line's stiffness, whose upper end —
-    the drum — moves as commanded).  Torsional top: ``'speed'`` (prescribed surface
+    the drum — moves as commanded).  ``lumped``: lumped (diagonal) masses, as the wall
+    friction of a deviated well needs (docs/physics.md §9); ``mud_damping_N_s_m2``: the
+    mud's viscous drag per unit length and unit sliding speed c [N·s/m²], at every node
+    c ℓ_i axially and c r² ℓ_i torsionally (ℓ_i its tributary length, r the pipe's
+    outer radius).  Torsional top: ``'speed'`` (prescribed surface
     speed, node eliminated), ``'soft_torque'`` (drive inertia I_DS on the top node
     tied to the motor by the tuned k_f, c_f) or ``'motor'`` (the motor inertia of
     ``drive``, a :class:`~drill_twin.physics.top_drive.TopDrive`, on the top node, driven
@@ -324,6 +340,9 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
         shear += [sec.shear_modulus_Pa] * n
     h, area, polar, rho, young, shear = map(np.asarray, (h, area, polar, rho, young, shear))
     t2 = s.time_s ** 2
+    damp_a, damp_t = _mud_damping(system, counts, h, mud_damping_N_s_m2)
+    if damp_a is not None:              # dimensionless: c t*/M and c t*/I
+        damp_a, damp_t = damp_a * s.time_s / s.mass_kg, damp_t * s.time_s / s.inertia_kgm2
     if axial_top not in ('hook_load', 'velocity', 'hoist'):
         raise ParameterError(f"axial_top must be 'hook_load', 'velocity' or 'hoist', got "
                              f'{axial_top!r}')
@@ -334,21 +353,23 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
         hoist = {'top_mass': block_mass_kg / s.mass_kg,
                  'top_spring': line_stiffness_N_m * t2 / s.mass_kg}
     axial = fem_chain(h, young * area * t2 / s.mass_kg, rho * area / s.mass_kg, eta_u, theta_u,
-                      top_fixed=axial_top == 'velocity', **hoist)
+                      top_fixed=axial_top == 'velocity', lumped=lumped, node_damping=damp_a,
+                      **hoist)
     gj = shear * polar / s.torque_Nm
     rj = rho * polar / s.inertia_kgm2
+    common = {'lumped': lumped, 'node_damping': damp_t}
     if top_drive == 'speed':
-        tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=True)
+        tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=True, **common)
     elif top_drive == 'soft_torque':
         st = soft_torque_tuning(system.drive_inertia_kgm2 / s.inertia_kgm2)
         tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=False,
                          top_mass=st['inertia'], top_spring=st['stiffness'],
-                         top_dashpot=st['damping'])
+                         top_dashpot=st['damping'], **common)
     elif top_drive == 'motor':
         if drive is None:
             raise ParameterError("top_drive 'motor' needs the drive's description")
         tors = fem_chain(h, gj, rj, eta_phi, theta_phi, top_fixed=False,
-                         top_mass=drive.motor_inertia_kgm2 / s.inertia_kgm2)
+                         top_mass=drive.motor_inertia_kgm2 / s.inertia_kgm2, **common)
     else:
         raise ParameterError(f"top_drive must be 'speed', 'soft_torque' or 'motor', got "
                              f'{top_drive!r}')
@@ -359,6 +380,23 @@ def fem_drill_string(system: DrillStringSI, elements: int = 58, bha_elements: in
     model.element_lengths_m = h
     model.section_elements = counts
     return model
+
+
+def _mud_damping(system, counts, h, c_N_s_m2):
+    """Nodal viscous damping of the mud [N·s/m] axially and [N·m·s] torsionally: c ℓ_i and
+    c r² ℓ_i, ℓ_i = half of each element beside node i; None without mud damping."""
+    if not c_N_s_m2:
+        return None, None
+    if not (math.isfinite(c_N_s_m2) and c_N_s_m2 > 0.0):
+        raise ParameterError(f'mud damping must be >= 0 N*s/m^2, got {c_N_s_m2!r}')
+    radius = np.concatenate([[0.5 * sec.outer_diameter_m] * n
+                             for sec, n in zip(system.sections, counts)])
+    axial = np.zeros(h.size + 1)
+    tors = np.zeros(h.size + 1)
+    for share in (0, 1):                # each element's halves to its two nodes
+        axial[share:h.size + share] += 0.5 * c_N_s_m2 * h
+        tors[share:h.size + share] += 0.5 * c_N_s_m2 * radius ** 2 * h
+    return axial, tors
 
 
 def pipe_impedances(system: DrillStringSI) -> dict:

@@ -21,6 +21,7 @@ from .chain import pack_chain
 from .layout import (
     ANGULAR,
     AXIAL,
+    CONTACT,
     COUNTER,
     DRIVE,
     INPUT,
@@ -30,12 +31,14 @@ from .layout import (
     START,
     STATUS,
     TIME,
+    WALL,
     state_layout,
 )
 from .models import StringModel, max_stable_step, rgd
 from .parameters import BitRockGroups
 from .time_history import new_time_history, push_sample
 from .top_drive import kernel_drive
+from .wall_contact import NO_WALL
 
 __all__ = ['Simulation', 'Trajectory', 'SimulationDiverged', 'bit_law', 'top_coupling',
            'compile_kernels', 'state_slices']
@@ -188,6 +191,8 @@ class Simulation:
         # the signal history of the constant delays (lumped model III, drive sensors)
         memory = max(self.top.tau_a, self.top.tau_t, self.top.t_delay)
         self.th, self.thm = new_time_history(int(1.5 * memory / self.h) + 64 if memory else 4)
+        self.wall = NO_WALL
+        self.contact = np.zeros(0, np.int64)
         if memory:
             steady = np.zeros(len(SIGNAL))
             steady[SIGNAL.bit_axial_speed] = groups.upsilon_o
@@ -208,6 +213,8 @@ class Simulation:
                                  'simulate')
         sim = cls(scenario.integrated_model, scenario.groups, time_step or scenario.time_step,
                   drive_time_constant=drive_time_constant)
+        if getattr(scenario, 'wall', None) is not None:
+            sim.set_wall(scenario.wall)
         sim.perturb(where=scenario.perturb_where,
                     **(scenario.initial_perturbation if perturbation is None else perturbation))
         return sim
@@ -225,13 +232,33 @@ class Simulation:
 
     def kernel_model(self) -> K.Model:
         """What the kernel integrates (:class:`~drill_twin.physics.kernel.Model`)."""
-        return K.Model(self.law, self.top, self.A, self.T, self.geom)
+        return K.Model(self.law, self.top, self.A, self.T, self.geom, self.wall)
+
+    def set_wall(self, wall: np.ndarray):
+        """The nodes in contact with the wall (:func:`~drill_twin.physics.wall_contact.
+        pack_wall`); each starts stuck if its total velocity is zero, else sliding."""
+        wall = np.ascontiguousarray(wall, float)
+        if wall.ndim != 2 or wall.shape[0] != len(WALL):
+            raise ParameterError(f'wall array must have {len(WALL)} rows')
+        self.wall = wall
+        self.contact = np.zeros(wall.shape[1], np.int64)
+        self.settle_wall()
+
+    def settle_wall(self):
+        """Each wall node sticks if its total velocity is zero (a string at rest), else
+        slides."""
+        L = state_layout.py_func(self.n_axial, self.n_torsional)
+        for j in range(self.wall.shape[1]):
+            ia, it = int(self.wall[WALL.axial_dof, j]), int(self.wall[WALL.torsional_dof, j])
+            rest = self.top.upsilon_o + self.x[L.v + ia] == 0.0 and \
+                self.top.omega_o + self.x[L.omega + it] == 0.0
+            self.contact[j] = CONTACT.stick if rest else CONTACT.slide
 
     def kernel_state(self) -> K.State:
         """The arrays the kernel updates (:class:`~drill_twin.physics.kernel.State`), this
         simulation's own (built at each call: attributes may have been replaced)."""
         return K.State(self.tau, self.x, self.mode, self.inputs, self.surface, self.th,
-                       self.thm, self.counters, self.start_bit)
+                       self.thm, self.counters, self.start_bit, self.contact)
 
     def perturb(self, u: float = 0.0, v: float = 0.0, phi: float = 0.0, omega: float = 0.0,
                 where: str = 'bit'):

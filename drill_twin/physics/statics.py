@@ -13,7 +13,9 @@ found here from the static balance ``K q = f`` (the damping and mass terms vanis
   ``gap`` above the rock.  With a hoist or an imposed top the block position
   ``z_p`` is solved for instead (two unit solutions, superposed);
 * torsional, untwisted (T = 0): ``K_t φ = T_o e_bit + k_t θ_p e_0`` with the motor
-  angle θ_p = 0;
+  angle θ_p = 0; a free top node (the motor of a PI top drive) holds no torque either,
+  ``K_t φ = T_o (e_bit - e_0)`` with its angle pinned, and the PI loop's integral is
+  the one that makes the motor torque zero at zero speed error;
 * velocities: all total velocities zero (perturbations -υ_o and -ω_o), the motor and
   the block commanded to rest;
 * the rock: a flat bottom (never cut by these blades) at the origin of U.
@@ -78,8 +80,16 @@ def rest_state(sim, gap: float):
     if nt > 0:
         e = np.zeros(nt)
         e[-1] = 1.0
-        x[sl['phi']] = _static_solve(model.torsional, g.T_o * e)
+        if top.k_t > 0.0:                      # tied to the motor angle: solve
+            x[sl['phi']] = _static_solve(model.torsional, g.T_o * e)
+        else:                                  # a free top node (the motor's): it holds
+            e_top_t = np.zeros(nt)             # no torque either, the angle is pinned
+            e_top_t[0] = 1.0
+            x[sl['phi']] = _static_solve(model.torsional, g.T_o * (e - e_top_t), pin=True)
         x[sl['omega']] = -g.omega_o
+        if top.drive_pi > 0.0:                 # the PI loop at rest: no motor torque
+            x[sl['drive_integral']] = -g.T_o / top.ki
+            x[sl['torque_reference']] = -g.T_o
     x[sl['drive_angle']] = 0.0
     x[sl['drive_speed']] = -g.omega_o
     sim.inputs[INPUT.speed_command] = 0.0
@@ -89,6 +99,7 @@ def rest_state(sim, gap: float):
     sim.mode[MODE.axial] = AXIAL.down
     sim.mode[MODE.contact:] = 0
     sim.start_bit[:] = 0.0
+    sim.settle_wall()                          # every node in contact with the wall sticks
     return float(z_p)
 
 

@@ -98,6 +98,8 @@ class DigitalTwin:
         from ..physics.statics import rest_state
         if not (math.isfinite(gap_m) and 0.0 < gap_m <= 1000.0):
             raise ParameterError(f'start_above_bottom_m {gap_m!r} m outside (0, 1000] m')
+        if self.scenario.wall is not None:   # off bottom: the wall's contact without WOB
+            self.sim.set_wall(self.scenario.wall_at(0.0))
         rest_state(self.sim, gap_m / self.scales.depth_m)
         self.surface_speed_setpoint = 0.0
         self.block_velocity_setpoint = 0.0

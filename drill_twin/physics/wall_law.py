@@ -1,0 +1,73 @@
+"""The wall's Coulomb friction on one node of the string: the implicit (Moreau–Jean)
+impulse of one step, in closed form.
+
+Derivation: docs/physics.md §9.  A node of lumped masses ``m_a`` (axial) and ``m_t``
+(tangential, the torsional inertia seen at the contact radius) slides on the wall with
+the velocity vector y = (y_a, y_t) (axial speed, rim speed r ω), dimensionless.  Over a
+step h the wall gives it the impulse P ∈ -h F Sgn(y⁺) (F = μ n, Sgn the set-valued sign
+of a vector: y/|y| for y ≠ 0, the closed unit disc at 0), taken at the step's *end*
+velocity y⁺ (implicit, eq. 9.4).  With the momentum p = (m_a y*_a, m_t y*_t) that the
+step's smooth forces alone would give (the predictor y*), eq. 9.4 is the optimality
+condition of the strictly convex problem
+
+    min_y ½ m_a (y_a - y*_a)² + ½ m_t (y_t - y*_t)² + h F |y|               (9.5)
+
+whose one solution is (eqs 9.6-9.7)
+
+* stick, y⁺ = 0, when |p| ≤ h F (the disc holds the impulse): exactly zero, no
+  velocity threshold;
+* slide otherwise, y⁺_k = p_k s / (m_k s + h F) for k = a, t, with s = |y⁺| > 0 the one
+  root of G(s) = Σ_k (p_k / (m_k s + h F))² - 1, decreasing and convex in s; Newton's
+  method from s₀ = (|p| - h F)/max m_k ≤ s (G(s₀) ≥ 0) converges monotonically and is
+  exact at s₀ when m_a = m_t.
+
+Static and dynamic friction: a node that stuck at the end of the previous step is
+held while |p| ≤ h μ_s n (the static capacity); once it slides, the impulse is
+h μ_d n.  Everything here is compiled (numba), scalars in and out.
+"""
+from __future__ import annotations
+
+import math
+
+from .jit import kernel_jit
+
+__all__ = ['project_node']
+
+
+@kernel_jit(inline='always')
+def project_node(p_a, p_t, m_a, m_t, hold, slide):
+    """The end-of-step velocity (y_a, y_t) of a node under the wall's friction, and
+    whether it sticks (eqs 9.6-9.7).
+
+    Parameters
+    ----------
+    p_a, p_t : float
+        Momentum of the predictor velocity, m_a y*_a and m_t y*_t (dimensionless).
+    m_a, m_t : float
+        The node's axial and tangential masses (> 0).
+    hold : float
+        The impulse the wall can hold: h μ_s n for a node stuck at the step's start,
+        h μ_d n for a sliding one.
+    slide : float
+        The impulse of sliding friction, h μ_d n (≤ ``hold``).
+
+    Returns
+    -------
+    (y_a, y_t, stuck) : (float, float, bool)
+    """
+    p = math.hypot(p_a, p_t)
+    if p <= hold:
+        return 0.0, 0.0, True
+    s = (p - slide) / max(m_a, m_t)
+    for _ in range(40):
+        da = m_a * s + slide
+        dt = m_t * s + slide
+        ga = p_a / da
+        gt = p_t / dt
+        g = ga * ga + gt * gt - 1.0
+        dg = -2.0 * (m_a * ga * ga / da + m_t * gt * gt / dt)
+        step = -g / dg if dg < 0.0 else 0.0
+        s += step
+        if not step > 1e-15 * s:
+            break
+    return p_a * s / (m_a * s + slide), p_t * s / (m_t * s + slide), False
