@@ -45,7 +45,8 @@ setup(
         ('share/' + package_name, ['package.xml', _revision_file()]),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/operations', glob('config/operations/*.yaml')),
-        ('share/' + package_name + '/config/wells', glob('config/wells/*.csv')),
+        ('share/' + package_name + '/config/wells', glob('config/wells/*.csv')
+         + glob('config/wells/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
         ('share/' + package_name + '/layouts', glob('layouts/*')),
     ],

@@ -9,7 +9,7 @@ import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from ..errors import ParameterError
 from ..runtime.settings import Setting, check
@@ -155,8 +155,10 @@ def run_node(node_class, label, args=None) -> int:
         if not rclpy.ok():
             return 0
         raise
+    executor = None
     try:
-        rclpy.spin(node)
+        executor = _SignalSafeExecutor()
+        rclpy.spin(node, executor=executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:  # noqa: BLE001
@@ -165,10 +167,21 @@ def run_node(node_class, label, args=None) -> int:
         if rclpy.ok():
             raise
     finally:
+        if executor is not None:
+            executor.shutdown(timeout_sec=0.5)
         node.destroy_node()
         rclpy.try_shutdown()
         _leave_the_graph()
     return 0
+
+
+class _SignalSafeExecutor(SingleThreadedExecutor):
+    """rclpy's single-threaded executor, safe to collect half-built: a signal that shuts
+    the context down while ``__init__`` runs leaves the instance without ``_sigint_gc``, and
+    rclpy's ``__del__`` then printed an AttributeError traceback on a clean exit (seen once
+    in a full suite run, SIGTERM right after the OPC UA bridge began to listen)."""
+
+    _sigint_gc = None
 
 
 def _leave_the_graph():
