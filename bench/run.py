@@ -231,6 +231,66 @@ def bench_rtf(smoke):
                 f'>= {target:,.0f}x' if target and drive == 'speed' else '', ok, note)
 
 
+#: the deviated string of issue 33's speed target: Well B's case deepened to MD 4,000 m
+#: (vertical to 500 m, built to 60° at 1,600 m, held), the drill pipe lengthened to match
+WELL_MD_M = 4000.0
+
+
+def _deep_well_b(elements: int, survey: Path):
+    """config/wells/well_b.yaml at MD 4,000 m with ``elements`` elements."""
+    from drill_twin.config.scenario import read_config, scenario_from_dict
+    from drill_twin.config.lookup import resolve_config
+    raw = copy.deepcopy(read_config(resolve_config('wells/well_b')))
+    sections = raw['drill_string']['sections']
+    sections[0]['length_m'] = WELL_MD_M - sum(sec['length_m'] for sec in sections[1:])
+    raw['well']['survey'] = str(survey)
+    raw['model']['elements'] = elements
+    return scenario_from_dict(raw, 'bench: Well B at 4,000 m')
+
+
+def bench_wells(smoke):
+    """Issue 33: a 4,000 m deviated string of 200 elements with the wall's friction at
+    every node, off bottom (a start-up from rest to 40 rpm) and on bottom (steady drilling's
+    start, 60 kN, 40 rpm), as real-time factors of the kernel (best of three)."""
+    import math as _m
+
+    from drill_twin.physics.well_path import piecewise_linear_inclination_path
+    path = piecewise_linear_inclination_path([0.0, 500.0, 1600.0],
+                                             [0.0, 0.0, _m.radians(60.0)], WELL_MD_M)
+    with tempfile.TemporaryDirectory() as d:
+        survey = Path(d) / 'deep_well_b.csv'
+        survey.write_text('measured_depth_m,inclination_deg,azimuth_deg\n' + ''.join(
+            f'{md:.6f},{_m.degrees(i):.9f},0\n'
+            for md, i in zip(path.measured_depth_m, path.inclination_rad)))
+        sc = _deep_well_b(200, survey)
+        for where in ('off bottom', 'on bottom'):
+            _wells_row(sc, where, 2.0 if smoke else 30.0, smoke)
+
+
+def _wells_row(sc, where, seconds, smoke):
+    import math as _m
+
+    from drill_twin.physics.statics import rest_state
+    ts = sc.scales.time_s
+    sim = Simulation.from_scenario(sc)
+    if where == 'off bottom':
+        sim.set_wall(sc.wall_at(0.0))
+        rest_state(sim, 1.0 / sc.scales.depth_m)
+        sim.set_surface_speed(40 * 2 * _m.pi / 60 * ts)
+    sim.advance(int(5.0 / ts / sim.h))                  # compile / load, and past the start
+    steps = max(1, int(seconds / ts / sim.h) // 3)
+    wall = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        sim.advance(steps)
+        wall = min(wall, time.perf_counter() - t0)
+    r = steps * sim.h * ts / wall
+    row('RTF', f'deviated 4,000 m string, 200 elements, wall friction, {where}',
+        f'{r:,.0f}x', 'real time', '>= 300x', None if smoke else r >= 300,
+        f'{sim.wall.shape[1]} nodes on the wall, step {sim.h * ts * 1e3:.2f} ms, '
+        f'{wall / steps * 1e6:.2f} us/step')
+
+
 #: the shipped configurations run as a user types them, and how long (s or t*)
 AS_TYPED = (('benchmark_fem', ['--duration', '1000'], 1000.0),
             ('rig_fem', ['--duration', '300'], 1000.0),
@@ -971,7 +1031,8 @@ def main():
     args = ap.parse_args()
     print(f'{"section":<10} {"item":<46} {"value":>12} {"unit":<12} {"target":<14} '
           f'{"status":<8} note')
-    parts = (bench_startup, bench_rtf, bench_as_typed, bench_scaling, bench_numpy_peer,
+    parts = (bench_startup, bench_rtf, bench_wells, bench_as_typed, bench_scaling,
+             bench_numpy_peer,
              bench_physical_limit,
              bench_stability, bench_sweep, bench_estimator, bench_nodes,
              bench_realtime_under_load, bench_memory,

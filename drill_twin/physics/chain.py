@@ -63,7 +63,8 @@ def _pack_tridiagonal(chain, out):
             raise ValueError('mass matrix is not positive definite')
         inv[i] = 1.0 / den
         cp[i] = up[i] * inv[i] if i < n - 1 else 0.0
-    out[CHAIN.form, FORM.kind] = CHAIN_FORMS.tridiagonal
+    lumped = not (np.any(lo[1:]) or np.any(up[:-1]))
+    out[CHAIN.form, FORM.kind] = CHAIN_FORMS.diagonal if lumped else CHAIN_FORMS.tridiagonal
 
 
 def _pack_arrow(chain, out):
@@ -130,9 +131,13 @@ def _accelerations_chain(ch, q, qd, f_top, f_bit, out):
         out[i] = -s
     out[0] += f_top
     out[n - 1] += f_bit
+    inv = ch[CHAIN.inverse]
+    if ch[CHAIN.form, FORM.kind] == CHAIN_FORMS.diagonal:    # lumped masses: M⁻¹ is inv
+        for i in range(n):
+            out[i] *= inv[i]
+        return
     lo = ch[CHAIN.mass + TRIPLE.lower]
     cp = ch[CHAIN.thomas]
-    inv = ch[CHAIN.inverse]
     out[0] = out[0] * inv[0]
     for i in range(1, n):
         out[i] = (out[i] - lo[i] * out[i - 1]) * inv[i]

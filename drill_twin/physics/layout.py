@@ -76,8 +76,9 @@ CHAIN = offsets('Chain', (('mass', 3), ('damping', 3), ('stiffness', 3), ('thoma
 TRIPLE = indices('Triple', ('lower', 'diagonal', 'upper'))
 #: ``chain[CHAIN.form]``: [form, first element's stiffness coupling, damping coupling]
 FORM = indices('Form', ('kind', 'top_stiffness', 'top_damping'))
-#: values of ``chain[CHAIN.form, FORM.kind]``
-CHAIN_FORMS = indices('ChainForms', ('tridiagonal', 'arrow'))
+#: values of ``chain[CHAIN.form, FORM.kind]``: a tridiagonal mass, an arrow (a reduced
+#: string), a diagonal (lumped) mass with tridiagonal damping and stiffness
+CHAIN_FORMS = indices('ChainForms', ('tridiagonal', 'arrow', 'diagonal'))
 #: rows of the bottom surface (:mod:`~drill_twin.physics.bottom_surface`)
 SURFACE = indices('Surface', ('height', 'previous', 'angle', 'time', 'previous_time',
                               'residual'))

@@ -17,9 +17,11 @@ whose one solution is (eqs 9.6-9.7)
 * stick, y⁺ = 0, when |p| ≤ h F (the disc holds the impulse): exactly zero, no
   velocity threshold;
 * slide otherwise, y⁺_k = p_k s / (m_k s + h F) for k = a, t, with s = |y⁺| > 0 the one
-  root of G(s) = Σ_k (p_k / (m_k s + h F))² - 1, decreasing and convex in s; Newton's
-  method from s₀ = (|p| - h F)/max m_k ≤ s (G(s₀) ≥ 0) converges monotonically and is
-  exact at s₀ when m_a = m_t.
+  root of G(s) = Σ_k (p_k / (m_k s + h F))² - 1, decreasing and convex in s, so Newton's
+  method converges from any s₀ > 0 (from the right of the root its first step lands left
+  of it, and from the left it rises monotonically).  s₀ = (|p| - h F)|p|²/Σ m_k p_k², the
+  root of the problem with the momentum-weighted mass, is the root itself when the masses
+  are equal or one component is zero; otherwise two or three steps reach round-off.
 
 Static and dynamic friction: a node that stuck at the end of the previous step is
 held while |p| ≤ h μ_s n (the static capacity); once it slides, the impulse is
@@ -55,10 +57,13 @@ def project_node(p_a, p_t, m_a, m_t, hold, slide):
     -------
     (y_a, y_t, stuck) : (float, float, bool)
     """
-    p = math.hypot(p_a, p_t)
+    pp = p_a * p_a + p_t * p_t
+    p = math.sqrt(pp)
     if p <= hold:
         return 0.0, 0.0, True
-    s = (p - slide) / max(m_a, m_t)
+    # Newton from the root of the isotropic problem with the momentum-weighted mass: the
+    # root itself when one component is zero or the masses are equal (then one check)
+    s = (p - slide) * pp / (m_a * p_a * p_a + m_t * p_t * p_t)
     for _ in range(40):
         da = m_a * s + slide
         dt = m_t * s + slide
@@ -68,6 +73,6 @@ def project_node(p_a, p_t, m_a, m_t, hold, slide):
         dg = -2.0 * (m_a * ga * ga / da + m_t * gt * gt / dt)
         step = -g / dg if dg < 0.0 else 0.0
         s += step
-        if not step > 1e-15 * s:
+        if not abs(step) > 1e-15 * s:
             break
     return p_a * s / (m_a * s + slide), p_t * s / (m_t * s + slide), False
