@@ -158,8 +158,11 @@ TOPICS = (
     # the 3-D view (drill_twin.runtime.scene): frames well -> top_drive, bit; the string
     Topic('/tf', 'tf2_msgs/msg/TFMessage', TF, 'scene'),
     Topic('string/markers', 'visualization_msgs/msg/MarkerArray', EVENTS, 'scene'),
+    # along the string, node by node: depth, speed, torque, tension, wall contact force
+    Topic('string/profile', 'std_msgs/msg/Float64MultiArray', EVENTS, 'scene'),
     Topic('/tf_static', 'tf2_msgs/msg/TFMessage', LATCHED, 'geometry'),
     Topic('well/markers', 'visualization_msgs/msg/MarkerArray', LATCHED, 'geometry'),
+    Topic('well/path', 'nav_msgs/msg/Path', LATCHED, 'geometry'),
 )
 BY_NAME = {t.name: t for t in TOPICS}
 MEASUREMENTS = tuple(t for t in TOPICS if t.role == 'measurement')

@@ -21,7 +21,13 @@ from drill_twin.config.scenario import load_scenario
 from drill_twin.io.mcap_reader import open_recording
 from drill_twin.io.run_recorder import record_run
 from drill_twin.runtime.digital_twin import DigitalTwin
-from drill_twin.runtime.scene import StringScene, axis_rotation, speed_colour, string_profile
+from drill_twin.runtime.scene import (
+    PROFILE_ROWS,
+    StringScene,
+    axis_rotation,
+    speed_colour,
+    string_profile,
+)
 
 LAYOUTS = Path(__file__).resolve().parents[1] / 'layouts'
 
@@ -67,8 +73,9 @@ def test_the_marker_points_lie_on_the_configured_string(config):
     twin.advance_to(3.0)
     m = twin.measurements()
     scene = StringScene(twin)
-    (tf_name, tf), (name, markers) = scene.messages(m, T.stamp_fields(m['time_s']))
-    assert (tf_name, name) == ('/tf', 'string/markers')
+    (tf_name, tf), (name, markers), (profile_name, _) = scene.messages(
+        m, T.stamp_fields(m['time_s']))
+    assert (tf_name, name, profile_name) == ('/tf', 'string/markers', 'string/profile')
     line = markers['markers'][0]
     points = np.array([[p['x'], p['y'], p['z']] for p in line['points']])
     lengths = scenario.model.element_lengths_m
@@ -97,6 +104,69 @@ def test_the_marker_points_lie_on_the_configured_string(config):
     assert bit['pose']['position']['z'] == pytest.approx(-depth[-1])
 
 
+def test_the_profile_carries_the_steady_torque_and_the_weight_down_the_string():
+    """Vertical benchmark string drilling steadily: the torque is the same in every element
+    (no wall: nothing takes torque between top and bit) and equals the surface torque; the
+    tension falls from the hook load to minus the WOB by the buoyed weight below each
+    element (thesis §2.1: H = ∫ f_u dx - W)."""
+    scenario = load_scenario('benchmark_fem', [f'simulation.initial_perturbation.{k}=0'
+                                               for k in ('u', 'v', 'phi', 'omega')])
+    twin = DigitalTwin(scenario)
+    m = twin.measurements()
+    fields = StringScene(twin).draw(m, T.stamp_fields(0.0))[2][1]
+    rows, nodes = (d['size'] for d in fields['layout']['dim'])
+    assert fields['layout']['dim'][0]['label'].split(',') == list(PROFILE_ROWS)
+    p = dict(zip(PROFILE_ROWS, np.array(fields['data']).reshape(rows, nodes)))
+    system = scenario.system
+    assert nodes == len(scenario.model.element_lengths_m) + 1
+    assert p['torque_Nm'][:-1] == pytest.approx(m['surface_torque_Nm'], rel=1e-9)
+    assert p['torque_Nm'][-1] == pytest.approx(m['torque_on_bit_Nm'])
+    weight = system.buoyed_weight_N()
+    assert p['tension_N'][0] == pytest.approx(weight - m['weight_on_bit_N'], rel=1e-6)
+    assert p['tension_N'][-1] == pytest.approx(-m['weight_on_bit_N'])
+    assert np.all(np.diff(p['tension_N']) < 0)
+    assert np.all(p['contact_force_N'] == 0.0)                  # a vertical well
+
+
+def test_in_a_deviated_well_the_string_lies_on_the_well_path():
+    """Well B: vertical to 500 m, a 60° build of radius R = 1100 m/(π/3) to 1,600 m, then
+    straight: at MD 2,500 m the bit is R(1 - cos 60°) + 900 sin 60° north of the wellhead
+    and 500 + R sin 60° + 900 cos 60° deep (closed form).  The well/path poses point along
+    the hole; the wall's contact force is zero in the vertical part and positive below."""
+    scenario = load_scenario('wells/well_b')
+    twin = DigitalTwin(scenario)
+    m = twin.measurements()
+    scene = StringScene(twin)
+    stamp = T.stamp_fields(0.0)
+    (_, tf), (_, markers), (_, fields) = scene.draw(m, stamp)
+    R = 1100.0 / (math.pi / 3)
+    north = R * (1 - math.cos(math.pi / 3)) + 900 * math.sin(math.pi / 3)
+    depth = 500 + R * math.sin(math.pi / 3) + 900 * math.cos(math.pi / 3)
+    bit = markers['markers'][1]['pose']['position']
+    # the bit moved by its axial displacement from MD 2,500 m (mm): 0.01 m
+    assert (bit['x'], bit['y'], bit['z']) == pytest.approx((0.0, north, -depth), abs=0.01)
+    frames = {t['child_frame_id']: t['transform'] for t in tf['transforms']}
+    assert frames['bit']['translation'] == pytest.approx(bit)
+    path = dict(scene.static_messages(stamp))['well/path']
+    poses = path['poses']
+    assert path['header']['frame_id'] == 'well'
+    assert poses[0]['pose']['position'] == pytest.approx({'x': 0.0, 'y': 0.0, 'z': 0.0})
+    end = poses[-1]['pose']
+    # summed over 250 legs of 0.55° doglegs (ratio factors in floating point): 1e-4 m
+    assert (end['position']['y'], end['position']['z']) == pytest.approx((north, -depth),
+                                                                         abs=1e-4)
+    q = end['orientation']                                   # x axis of the pose
+    x_axis = (1 - 2 * (q['y'] ** 2 + q['z'] ** 2), 2 * (q['x'] * q['y'] + q['w'] * q['z']),
+              2 * (q['x'] * q['z'] - q['w'] * q['y']))
+    assert x_axis == pytest.approx((0.0, math.sin(math.pi / 3), -math.cos(math.pi / 3)),
+                                   abs=1e-12)
+    rows, nodes = (d['size'] for d in fields['layout']['dim'])
+    p = dict(zip(PROFILE_ROWS, np.array(fields['data']).reshape(rows, nodes)))
+    vertical = p['measured_depth_m'] < 499.0
+    assert np.all(p['contact_force_N'][vertical] == 0.0)
+    assert np.all(p['contact_force_N'][p['measured_depth_m'] > 501.0] > 0.0)
+
+
 def test_the_bit_is_marked_when_stuck():
     twin = DigitalTwin(load_scenario('rig_fem'))
     m = twin.measurements()
@@ -121,6 +191,8 @@ def test_a_recording_holds_the_scene_and_the_latched_geometry(recording):
     assert topics['/string/markers'] == 'visualization_msgs/msg/MarkerArray'
     counts = recording.message_counts
     assert counts['/tf_static'] == 1 and counts['/well/markers'] == 1
+    assert counts['/well/path'] == 1
+    assert counts['/string/profile'] == counts['/string/markers']
     assert counts['/string/markers'] == pytest.approx(20, abs=1)    # 10 Hz for 2 s
     assert counts['/bit/velocity'] == 200
     decoded = [recording.decoder('/string/markers')(data)
