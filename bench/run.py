@@ -238,8 +238,8 @@ WELL_MD_M = 4000.0
 
 def _deep_well_b(elements: int, survey: Path):
     """config/wells/well_b.yaml at MD 4,000 m with ``elements`` elements."""
-    from drill_twin.config.scenario import read_config, scenario_from_dict
     from drill_twin.config.lookup import resolve_config
+    from drill_twin.config.scenario import read_config, scenario_from_dict
     raw = copy.deepcopy(read_config(resolve_config('wells/well_b')))
     sections = raw['drill_string']['sections']
     sections[0]['length_m'] = WELL_MD_M - sum(sec['length_m'] for sec in sections[1:])
