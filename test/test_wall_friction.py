@@ -294,3 +294,47 @@ def test_a_vertical_survey_gives_no_wall_contact_and_the_vertical_trajectory():
         sim = Simulation.from_scenario(sc)
         runs.append(sim.advance(2000, record_every=10).bit_angular_speed)
     assert np.array_equal(runs[0], runs[1])
+
+
+def test_the_linearisation_damps_with_the_sliding_frictions_jacobian():
+    """Steady drilling in Well B slides every node on the wall: the linearisation gains,
+    per node, the Jacobian of the vector law f = -F y/|y| at y_o = (υ_o, ρ ω_o), here by
+    central differences of the law written in this test (step 1e-6 |y_o|: truncation
+    O(h²) ~ 1e-12 relative, round-off ~1e-10)."""
+    from drill_twin.physics.layout import WALL, state_layout
+    from drill_twin.physics.wall_contact import rim_inertia_factor
+    from drill_twin.stability.linearize import linearize, linearize_scenario
+    sc = load_scenario('wells/well_b')
+    with_wall = linearize_scenario(sc).A0
+    without = linearize(sc.model, sc.groups).A0
+    g, wall = sc.groups, sc.wall
+    kappa = rim_inertia_factor(sc.scales)
+    L = state_layout.py_func(sc.model.axial.n, sc.model.torsional.n)
+    m_a = sc.model.axial.mass[1]
+    m_t = sc.model.torsional.mass[1]
+    expected = np.zeros_like(without)
+    for j in range(wall.shape[1]):
+        ia, it = int(wall[WALL.axial_dof, j]), int(wall[WALL.torsional_dof, j])
+        if ia == sc.model.axial.n - 1:
+            continue
+        F, rho = wall[WALL.dynamic, j], wall[WALL.radius, j]
+
+        def law(v, w):          # axial force and torque (C units) at axial v, angular w
+            y = np.array([g.upsilon_o + v, rho * (g.omega_o + w)])
+            f = -F * y / np.hypot(*y)
+            return f[0], f[1] * rho / kappa
+        h = 1e-6 * math.hypot(g.upsilon_o, rho * g.omega_o)
+        dv = (np.array(law(h, 0.0)) - np.array(law(-h, 0.0))) / (2 * h)
+        dw = (np.array(law(0.0, h / rho)) - np.array(law(0.0, -h / rho))) / (2 * h / rho)
+        expected[L.v + ia, L.v + ia] += dv[0] / m_a[ia]
+        expected[L.v + ia, L.omega + it] += dw[0] / m_a[ia]
+        expected[L.omega + it, L.v + ia] += dv[1] / m_t[it]
+        expected[L.omega + it, L.omega + it] += dw[1] / m_t[it]
+    got = with_wall - without
+    scale = np.abs(expected).max()
+    assert scale > 0.0
+    assert np.max(np.abs(got - expected)) < 1e-8 * scale
+    # rotation makes the axial drag viscous: the axial diagonal dominates the torsional
+    axial = [-expected[L.v + i, L.v + i] for i in range(sc.model.axial.n - 1)]
+    tors = [-expected[L.omega + i, L.omega + i] for i in range(sc.model.torsional.n - 1)]
+    assert max(tors) < 1e-3 * max(axial)

@@ -33,7 +33,7 @@ from .layout import WALL
 from .torque_drag import ROTATING, torque_drag
 from .well_path import WellPath
 
-__all__ = ['node_contact', 'pack_wall', 'NO_WALL']
+__all__ = ['node_contact', 'pack_wall', 'NO_WALL', 'rim_inertia_factor']
 
 #: the kernel's wall array of a string that touches nothing (a vertical well)
 NO_WALL = np.zeros((len(WALL), 0))
@@ -100,6 +100,12 @@ def _piece_radius(sections, marks, depth) -> np.ndarray:
     return np.array([0.5 * sections[k].outer_diameter_m for k in index])
 
 
+def rim_inertia_factor(scales) -> float:
+    """κ = C t*²/(M d*²) of eq. 9.3: a node's torsional inertia m_t [I] seen at the rim is the
+    tangential mass κ m_t/ρ² [M] of its sliding velocity."""
+    return scales.torque_Nm * scales.time_s ** 2 / (scales.mass_kg * scales.depth_m ** 2)
+
+
 def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: float,
               axial_mass, torsional_mass, axial_offset: int, torsional_offset: int,
               scales) -> np.ndarray:
@@ -127,7 +133,7 @@ def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: floa
     n = np.asarray(normal_N, float)
     r = np.asarray(radius_m, float)
     force = scales.mass_kg * scales.depth_m / scales.time_s ** 2       # M d*/t*² [N]
-    kappa = scales.torque_Nm * scales.time_s ** 2 / (scales.mass_kg * scales.depth_m ** 2)
+    kappa = rim_inertia_factor(scales)
     columns = []
     for k in range(n.size):
         ia, it = k - axial_offset, k - torsional_offset

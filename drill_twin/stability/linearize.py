@@ -47,6 +47,21 @@ measured signals delayed by τ_m,
 
 and ``T_m`` enters the motor row ``φ''_0``.  ``r`` and ``T_s`` are two scalars, so with
 τ_m > 0 the delayed part is two rank-one terms of delay τ_m (in A0 when τ_m = 0).
+
+The wall's friction in a deviated well (docs/physics.md §9.9)
+------------------------------------------------------------
+Steady drilling slides every node on the wall with y_o = (υ_o, ρ ω_o) (axial, rim speed).
+The friction -F y/|y| has a constant part, which only moves the steady state (the elastic
+chains are linear: the twist and stretch it needs do not enter the perturbation), and a
+velocity dependence, which does: its Jacobian at y_o is -(F/|y_o|)(I - ŷŷᵀ), ŷ = y_o/|y_o|,
+a damping block per node on (δu', ρ δφ'),
+
+    δf_a = -(F/|y_o|)(ŷ_t² δu' - ŷ_a ŷ_t ρ δφ'),
+    δτ   = -(F ρ/κ |y_o|)(-ŷ_a ŷ_t δu' + ŷ_a² ρ δφ')      (torque: units C, κ of §9.3)
+
+— rotation turns the axial Coulomb drag into a viscous one, F/(ρ ω_o) per node when
+υ_o ≪ ρ ω_o, while the torsional part is second order in υ_o/(ρ ω_o).  The bit node is
+left out, as in the kernel while a blade is on the rock.
 """
 from __future__ import annotations
 
@@ -54,9 +69,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.layout import TRIPLE, indices, state_layout
+from ..physics.layout import TRIPLE, WALL, indices, state_layout
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
+from ..physics.wall_contact import rim_inertia_factor
 
 #: a motor drive's states, appended to the linear state ``[u, u', φ, φ']`` (the kernel's
 #: drive block also holds the prescribed angle, speed and block, which are not states of
@@ -104,8 +120,13 @@ class LinearDDE:
         return out
 
 
-def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
-    """Matrices of the linearised perturbation equations (see module docstring)."""
+def linearize(model: StringModel, groups: BitRockGroups, wall=None,
+              kappa: float = 1.0) -> LinearDDE:
+    """Matrices of the linearised perturbation equations (see module docstring).
+
+    ``wall``: the nodes on the wall of a deviated well (the kernel's array, :data:`~drill_
+    twin.physics.layout.WALL` rows), with ``kappa`` = C t*²/(M d*²) of docs/physics.md
+    eq. 9.3; None in a vertical well."""
     ax = model.axial
     tr = model.torsional
     na = ax.n
@@ -140,6 +161,8 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         A0[w] -= np.outer(col_t, sel)
         A1[w] += np.outer(col_t, sel)
         labels += [f'phi{i}' for i in range(nt)] + [f'dphi{i}' for i in range(nt)]
+        if wall is not None and wall.shape[1]:
+            _add_wall_damping(A0, wall, kappa, groups, L, Ma_inv, Mt_inv)
     extra = []
     delay = groups.tau_10
     if groups.uneven:  # one delayed term per distinct blade gap, each 1/n_b of the force
@@ -163,6 +186,27 @@ def linearize(model: StringModel, groups: BitRockGroups) -> LinearDDE:
         B[L.bit_omega, L.bit_omega] = -z_t / tr.dense('mass')[0, 0]
         extra.append((B, tau_t))
     return LinearDDE(A0, A1, delay, labels, extra)
+
+
+def _add_wall_damping(A0, wall, kappa, groups, L, Ma_inv, Mt_inv):
+    """The sliding friction's Jacobian (module docstring) in the velocity rows of A0."""
+    na, nt = Ma_inv.shape[0], Mt_inv.shape[0]
+    for j in range(wall.shape[1]):
+        ia, it = int(wall[WALL.axial_dof, j]), int(wall[WALL.torsional_dof, j])
+        if ia == na - 1:
+            continue                         # the bit: its own law while on bottom
+        rho, F = wall[WALL.radius, j], wall[WALL.dynamic, j]
+        ya, yt = groups.upsilon_o, rho * groups.omega_o
+        speed = float(np.hypot(ya, yt))
+        ca, ct = ya / speed, yt / speed
+        g = F / speed
+        # force on the axial DOF and torque on the torsional DOF per unit δu', δφ'
+        faa, fat = -g * ct * ct, g * ca * ct * rho
+        tta, ttt = g * rho / kappa * ca * ct, -g * rho / kappa * ca * ca * rho
+        A0[L.v:L.v + na, L.v + ia] += Ma_inv[:, ia] * faa
+        A0[L.v:L.v + na, L.omega + it] += Ma_inv[:, ia] * fat
+        A0[L.omega:L.omega + nt, L.v + ia] += Mt_inv[:, it] * tta
+        A0[L.omega:L.omega + nt, L.omega + it] += Mt_inv[:, it] * ttt
 
 
 def surface_torque_row(model: StringModel) -> np.ndarray:
@@ -238,4 +282,6 @@ def linearize_scenario(scenario, groups: BitRockGroups | None = None) -> LinearD
     if scenario.stability_only:
         z = scenario.impedances()
         return linearize_semi_infinite(groups, scenario.model.psi, z['axial'], z['torsional'])
-    return linearize(scenario.model, groups)
+    wall = getattr(scenario, 'wall', None)
+    kappa = rim_inertia_factor(scenario.scales) if wall is not None else 1.0
+    return linearize(scenario.model, groups, wall, kappa)
