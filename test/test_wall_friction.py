@@ -319,7 +319,7 @@ def test_the_linearisation_damps_with_the_sliding_frictions_jacobian():
             continue
         F, rho = wall[WALL.dynamic, j], wall[WALL.radius, j]
 
-        def law(v, w):          # axial force and torque (C units) at axial v, angular w
+        def law(v, w, F=F, rho=rho):    # axial force and torque (C units) at v, w
             y = np.array([g.upsilon_o + v, rho * (g.omega_o + w)])
             f = -F * y / np.hypot(*y)
             return f[0], f[1] * rho / kappa
