@@ -69,12 +69,10 @@ def test_a_stuck_node_breaks_at_the_static_capacity_and_slides_on_the_dynamic_on
 G = 9.81
 
 
-def _well_b_reference(system):
-    """∫ μ_s N r ds (the break-off torque / μ_s) and ∫ τ(x)/(G J) dx (the twist at break-off
-    / μ_s) of the Well B string rotating off bottom, from the soft-string balance of a
-    planar well written here: T(s) = ∫_s^L w cos I, N = |T κ - w sin I| (tension pulls
-    the string to the high side of a build, weight to the low side), κ = dI/ds; also the
-    weight-only ∫ w sin I r ds the issue states."""
+def _well_b_geometry(system):
+    """Section, inclination I(s) and weight per length w(s) [N/m] of the Well B string
+    (vertical to 500 m, I linear to 60° at 1,600 m, 60° below), the depths where they
+    break, the string's length, and a piecewise quadrature over them."""
     secs = system.sections
     L = sum(s.length_m for s in secs)
     bottoms = np.cumsum([s.length_m for s in secs])
@@ -84,8 +82,6 @@ def _well_b_reference(system):
 
     def inc(x):
         return 0.0 if x < 500 else (math.pi / 3 * (x - 500) / 1100 if x < 1600 else math.pi / 3)
-
-    kappa = math.pi / 3 / 1100
 
     def w(x):
         s = sec(x)
@@ -98,6 +94,17 @@ def _well_b_reference(system):
         pts = [a] + [p for p in breaks if a < p < b] + [b]
         return sum(quad(f, lo, hi, limit=200, epsabs=0, epsrel=1e-11)[0]
                    for lo, hi in zip(pts[:-1], pts[1:]))
+    return sec, inc, w, breaks, L, integral
+
+
+def _well_b_reference(system):
+    """∫ μ_s N r ds (the break-off torque / μ_s) and ∫ τ(x)/(G J) dx (the twist at break-off
+    / μ_s) of the Well B string rotating off bottom, from the soft-string balance of a
+    planar well written here: T(s) = ∫_s^L w cos I, N = |T κ - w sin I| (tension pulls
+    the string to the high side of a build, weight to the low side), κ = dI/ds; also the
+    weight-only ∫ w sin I r ds the issue states."""
+    sec, inc, w, breaks, L, integral = _well_b_geometry(system)
+    kappa = math.pi / 3 / 1100
 
     def tension(x):
         return integral(lambda s: w(s) * math.cos(inc(s)), x, L)
@@ -338,3 +345,43 @@ def test_the_linearisation_damps_with_the_sliding_frictions_jacobian():
     axial = [-expected[L.v + i, L.v + i] for i in range(sc.model.axial.n - 1)]
     tors = [-expected[L.omega + i, L.omega + i] for i in range(sc.model.torsional.n - 1)]
     assert max(tors) < 1e-3 * max(axial)
+
+
+def test_the_rig_sees_the_axial_weight_of_a_string_in_a_deviated_well():
+    """Rotating off bottom the hook carries ∫ w cos I ds (no axial drag while rotating):
+    Well B's string weighs 1,315 kN and hangs 891 kN on the hook; the twin's hook load at
+    rest and the WOB it infers use that (quadrature here: 1e-11 relative)."""
+    from drill_twin.runtime.digital_twin import DigitalTwin
+    sc = load_scenario('wells/well_b')
+    _, inc, w, _, L, integral = _well_b_geometry(sc.system)
+    axial = integral(lambda x: w(x) * math.cos(inc(x)), 0.0, L)
+    twin = DigitalTwin(sc, start_above_bottom_m=1.0)
+    assert twin.string_weight_N == pytest.approx(axial, rel=1e-6)
+    assert twin.measurements()['hook_load_N'] == pytest.approx(axial, rel=1e-6)
+    assert sc.system.buoyed_weight_N() > 1.4 * axial
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('name', ['startup_from_rest', 'connection', 'rpm_ramp', 'wob_steps'])
+def test_the_shipped_operations_run_on_a_deviated_well(name):
+    """The shipped scenarios on the benchmark string put into Well B's path (1,200 m: vertical
+    to 500 m, 38° at the bit): every step completes, the autodriller holds its WOB and the
+    top drive its speed, and the wall adds torque: the surface torque on bottom exceeds the
+    vertical well's by more than half the bit torque, the friction taking a share."""
+    import dataclasses
+
+    from drill_twin.operations.timeline import load_timeline
+    base = load_timeline(name)
+    runs = {}
+    for survey in (None, 'well_b'):
+        extra = () if survey is None else (f'well.survey={survey}',)
+        timeline = dataclasses.replace(base, overrides=tuple(base.overrides) + extra)
+        runs[survey] = run_timeline(timeline)
+    vertical, deviated = runs[None], runs['well_b']
+    assert [label for _, label in deviated['log']] == [label for _, label in vertical['log']]
+    def last(run, key):         # the last 20 s of a run (tagging bottom takes its own time)
+        return run[key][run['time_s'] > run['time_s'][-1] - 20.0].mean()
+    for key in ('weight_on_bit_N', 'bit_angular_speed_rad_s'):
+        assert last(deviated, key) == pytest.approx(last(vertical, key), rel=0.05)
+    extra_torque = last(deviated, 'surface_torque_Nm') - last(vertical, 'surface_torque_Nm')
+    assert extra_torque > 0.5 * last(vertical, 'torque_on_bit_Nm')

@@ -16,12 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, ParameterError
+from ..physics.torque_drag import ROTATING, torque_drag
 from ..physics.wall_contact import node_contact, pack_wall
 from ..physics.well_path import WellPath
 from .lookup import config_dirs, is_file
 from .yaml_bounds import read_text, shown
 
 __all__ = ['read_survey', 'scenario_well', 'resolve_survey', 'well_of', 'wall_of',
+           'string_weight_N',
            'MAX_SURVEY_BYTES', 'MAX_STATIONS']
 
 #: largest survey file read [bytes] and most stations (a station every 1 m over 20 km is
@@ -113,3 +115,18 @@ def wall_of(cfg: dict, system, model, scales, weight_on_bit_N: float = 0.0):
     return pack_wall(n, r, mu_s, mu_s * well.get('dynamic_friction_ratio', 1.0),
                      model.axial.mass[1], model.torsional.mass[1],
                      nodes - model.axial.n, nodes - model.torsional.n, scales)
+
+
+def string_weight_N(scenario, mud_density_kg_m3: float | None = None) -> float:
+    """What the string of an SI ``scenario`` weighs on the hook rotating off bottom [N]:
+    its buoyed weight in a vertical well, the soft string's frictionless hook load
+    ∫ w cos I ds on a deviated path (docs/torque_drag.md eq. 13 with μ = 0; rotation takes
+    the axial drag away).  ``mud_density_kg_m3``: another mud than the configuration's."""
+    system = scenario.system
+    if getattr(scenario, 'wall', None) is None:
+        return system.buoyed_weight_N(mud_density_kg_m3)
+    mud = system.mud_density_kg_m3 if mud_density_kg_m3 is None else mud_density_kg_m3
+    system.buoyed_weight_N(mud)                  # the same checks of the mud
+    path = well_of(scenario.raw, system)
+    length = min(system.total_length_m, path.total_depth_m)
+    return torque_drag(path, system.sections, length, 0.0, ROTATING, mud).hook_load_N

@@ -14,6 +14,7 @@ from collections import deque
 import numpy as np
 
 from ..config.scenario import Scenario
+from ..config.well import string_weight_N
 from ..errors import ParameterError
 from ..physics.simulation import Simulation
 
@@ -81,7 +82,9 @@ class DigitalTwin:
         self.sim = Simulation.from_scenario(
             scenario, drive_time_constant=drive_time_constant_s / scenario.scales.time_s,
             time_step=None if time_step_s is None else time_step_s / scenario.scales.time_s)
-        self.string_weight_N = scenario.system.buoyed_weight_N(mud_density_kg_m3)
+        #: what the string weighs on the hook rotating off bottom [N]: the buoyed weight in
+        #: a vertical well, its axial part ∫ w cos I ds on a deviated path (soft string)
+        self.string_weight_N = string_weight_N(scenario, mud_density_kg_m3)
         self.max_surface_speed = float(max_surface_speed_rad_s)
         self.nominal_wob_N = scenario.groups.W_o * self.scales.force_N
         self.hook_load_N = self.string_weight_N - self.nominal_wob_N
