@@ -861,6 +861,195 @@ def bench_realtime_under_load(smoke):
         'reported', None)
 
 
+def _free_port() -> int:
+    import socket
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        return sock.getsockname()[1]
+
+
+def _wait_port(port, proc, timeout_s=120.0) -> bool:
+    import socket
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and proc.poll() is None:
+        with socket.socket() as sock:
+            sock.settimeout(0.2)
+            if sock.connect_ex(('127.0.0.1', port)) == 0:
+                return True
+        time.sleep(0.05)        # polling a condition against a deadline
+    return False
+
+
+async def _opcua_clients(url, seconds, listeners, period_writes):
+    """The OPC UA part of :func:`bench_opcua`: one controlling client writing the speed
+    set-point at 100 Hz (toggling by 1 rad/s every ``period_writes`` writes) and the
+    heartbeat, ``listeners`` more clients subscribed to Rotation.Measured at 10 ms."""
+    import asyncio
+
+    from asyncua import Client, ua
+
+    from drill_twin.opcua.address_space import NAMESPACE_URI, ROOT
+
+    async def nodes(client, *keys):
+        idx = await client.get_namespace_index(NAMESPACE_URI)
+        root = await client.nodes.objects.get_child([f'{idx}:{ROOT}'])
+        out = [root]
+        for key in keys:
+            out.append(await root.get_child([f'{idx}:{k}' for k in key.split('.')]))
+        return idx, out
+
+    class Samples:
+        def __init__(self):
+            self.values = []
+
+        def datachange_notification(self, node, value, data):
+            self.values.append((time.monotonic(), value,
+                                data.monitored_item.Value.SourceTimestamp))
+
+    clients = [Client(url, timeout=10) for _ in range(listeners + 1)]
+    for c in clients:
+        await c.connect()
+    try:
+        idx, (root, measured, setpoint, beat) = await nodes(
+            clients[0], 'Rotation.Measured', 'Rotation.Setpoint', 'Rotation.Heartbeat')
+        ok, message = await root.call_method(f'{idx}:RequestControl', 'rotation', 'bench')
+        if not ok:
+            raise RuntimeError(f'RequestControl refused: {message}')
+        sinks = []
+        for c in clients:
+            _, (_, node) = await nodes(c, 'Rotation.Measured')
+            sink = Samples()
+            sub = await c.create_subscription(10, sink)
+            await sub.subscribe_data_change(node)
+            sinks.append(sink)
+        base = await measured.read_value()
+        toggles, k = [], 0
+        start = time.monotonic()
+        next_write = start
+        while time.monotonic() - start < seconds:
+            high = (k // period_writes) % 2 == 1
+            value = base + (1.0 if high else 0.0)
+            t_write = time.monotonic()
+            await setpoint.write_value(ua.DataValue(ua.Variant(value, ua.VariantType.Double)))
+            await beat.write_value(ua.DataValue(ua.Variant(k % 2 ** 32, ua.VariantType.UInt32)))
+            if k % period_writes == 0 and k > 0:
+                toggles.append((t_write, 1.0 if high else -1.0))
+            k += 1
+            next_write += 0.01
+            await asyncio.sleep(max(0.0, next_write - time.monotonic()))
+        await root.call_method(f'{idx}:ReleaseControl', 'rotation')
+        return k, toggles, sinks, start
+    finally:
+        for c in clients:
+            await c.disconnect()
+
+
+def _reaction_ms(samples, toggles, threshold=0.1):
+    """For each toggle (time, direction): ms until the first sample arriving after it whose
+    value moved by more than ``threshold`` [rad/s] that way from the last one before it."""
+    times = np.array([t for t, _, _ in samples])
+    values = np.array([v for _, v, _ in samples])
+    out = []
+    for t_write, direction in toggles:
+        before = np.searchsorted(times, t_write) - 1
+        if before < 0:
+            continue
+        moved = direction * (values[before + 1:before + 30] - values[before]) > threshold
+        if moved.any():
+            out.append((times[before + 1 + int(np.argmax(moved))] - t_write) * 1e3)
+    return np.array(out)
+
+
+def bench_opcua(smoke):
+    """Issue 34: the OPC UA bridge beside a real-time twin (processes, one ROS domain):
+    set-point write → the first Rotation.Measured sample that reflects it (the top-drive
+    speed moving > 0.1 rad/s toward the new set-point; a 1 rad/s step moves it ~0.3 rad/s in
+    one tick), at 100 Hz writes; 10 more clients subscribed at 10 ms; the twin's stamp gaps
+    meanwhile."""
+    try:
+        import asyncio
+
+        import asyncua  # noqa: F401
+        import rclpy
+        from geometry_msgs.msg import TwistStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import qos_profile_sensor_data
+    except ImportError as exc:
+        row('opcua', 'bridge', 'skipped', '', '', None, f'missing: {exc}')
+        return
+    seconds = 5.0 if smoke else 60.0
+    period_writes = 5                       # a set-point step every 50 ms
+    with _bench_domain() as domain:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
+                   ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+        twin = _node_process('twin_node', env, 'record_path:=none', 'stability_period_s:=0.0')
+        port = _free_port()
+        url = f'opc.tcp://127.0.0.1:{port}/drill_twin/'
+        bridge = subprocess.Popen(
+            [sys.executable, '-c', 'from drill_twin.ros.entry import opcua_bridge; '
+             'raise SystemExit(opcua_bridge())', '--ros-args', '-p', f'endpoint:={url}',
+             '-p', 'max_refresh_delay_s:=1.0'], env=env, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL)
+        saved = _enter_domain(env)
+        ctx = rclpy.Context()
+        rclpy.init(context=ctx)
+        probe = rclpy.create_node('bench_opcua_probe', context=ctx)
+        stamps = []
+        probe.create_subscription(TwistStamped, 'bit/velocity', lambda m: stamps.append(
+            (time.monotonic(), m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec)),
+            qos_profile_sensor_data)
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+        import threading
+        spinning = threading.Event()
+        spinning.set()
+        thread = threading.Thread(target=lambda: [ex.spin_once(timeout_sec=0.05)
+                                                  for _ in iter(spinning.is_set, False)],
+                                  daemon=True)
+        thread.start()
+        try:
+            if not _wait_port(port, bridge):
+                row('opcua', 'bridge', 'did not listen', '', '', False)
+                return
+            writes, toggles, sinks, start = asyncio.run(asyncio.wait_for(
+                _opcua_clients(url, seconds, 10, period_writes), seconds + 120))
+        finally:
+            spinning.clear()
+            thread.join(5)
+            for proc in (bridge, twin):
+                proc.send_signal(2)
+            for proc in (bridge, twin):
+                try:
+                    proc.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+            ex.shutdown()
+            probe.destroy_node()
+            rclpy.shutdown(context=ctx)
+            _restore_environ(saved)
+    lat = _reaction_ms(sinks[0].values, toggles)
+    ok = lat.size > 0 and np.percentile(lat, 99) < 20.0
+    row('opcua', 'set-point write -> first Measured reflecting it (p50/p99)',
+        f'{np.percentile(lat, 50):.1f}/{np.percentile(lat, 99):.1f}' if lat.size else 'none',
+        'ms', 'p99 < 20 ms', None if smoke else bool(ok),
+        f'{writes} writes at 100 Hz, {len(toggles)} steps of 1 rad/s, {lat.size} reactions; '
+        'includes the wait for the next 10 ms tick and the 10 ms publishing interval')
+    shares = []
+    for sink in sinks[1:]:
+        window = [s for t, _, s in sink.values if start + 1.0 <= t <= start + seconds - 1.0]
+        got = len({s for s in window})
+        span = (max(window) - min(window)).total_seconds() if len(window) > 1 else 0.0
+        shares.append(got / (round(span / 0.01) + 1) if span else 0.0)
+    worst = min(shares) if shares else 0.0
+    row('opcua', '10 clients at 10 ms: worst share of the twin samples received',
+        f'{worst:.1%}', '', '>= 99 %', None if smoke else worst >= 0.99,
+        'distinct source timestamps over the expected 100 Hz, the middle of the run')
+    window = np.array([st for t, st in stamps if start + 1.0 <= t <= start + seconds - 1.0])
+    gap = np.diff(np.sort(window)).max() * 1e3 if window.size > 1 else float('nan')
+    row('opcua', "the twin's max stamp gap with the bridge and 11 clients", f'{gap:.1f}', 'ms',
+        '< 30 ms', None if smoke else bool(gap < 30.0), f'{window.size} /bit/velocity stamps')
+
+
 def bench_recording_soak(smoke):
     """Issue 12: the twin node records for one simulated hour (as fast as possible, 20 Hz
     ticks, chunks of 0.25 s): resident memory of its process from 10 minutes to the end."""
@@ -1035,7 +1224,7 @@ def main():
              bench_numpy_peer,
              bench_physical_limit,
              bench_stability, bench_sweep, bench_estimator, bench_nodes,
-             bench_realtime_under_load, bench_memory,
+             bench_realtime_under_load, bench_opcua, bench_memory,
              bench_recording_soak, bench_recording, bench_jitcdde)
     for part in parts:
         if not args.only or part.__name__[len('bench_'):] in args.only:
