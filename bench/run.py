@@ -880,10 +880,11 @@ def _wait_port(port, proc, timeout_s=120.0) -> bool:
     return False
 
 
-async def _opcua_clients(url, seconds, listeners, period_writes):
+async def _opcua_clients(url, seconds, listeners, period_writes, step_rad_s):
     """The OPC UA part of :func:`bench_opcua`: one controlling client writing the speed
-    set-point at 100 Hz (toggling by 1 rad/s every ``period_writes`` writes) and the
-    heartbeat, ``listeners`` more clients subscribed to Rotation.Measured at 10 ms."""
+    set-point at 100 Hz (toggling by ``step_rad_s`` every ``period_writes`` writes) and the
+    heartbeat, subscribed to Rotation.MotorTorque at 1 ms; ``listeners`` more clients
+    subscribed to Rotation.Measured at 10 ms."""
     import asyncio
 
     from asyncua import Client, ua
@@ -910,25 +911,30 @@ async def _opcua_clients(url, seconds, listeners, period_writes):
     for c in clients:
         await c.connect()
     try:
-        idx, (root, measured, setpoint, beat) = await nodes(
-            clients[0], 'Rotation.Measured', 'Rotation.Setpoint', 'Rotation.Heartbeat')
+        idx, (root, measured, setpoint, beat, motor) = await nodes(
+            clients[0], 'Rotation.Measured', 'Rotation.Setpoint', 'Rotation.Heartbeat',
+            'Rotation.MotorTorque')
         ok, message = await root.call_method(f'{idx}:RequestControl', 'rotation', 'bench')
         if not ok:
             raise RuntimeError(f'RequestControl refused: {message}')
         sinks = []
-        for c in clients:
-            _, (_, node) = await nodes(c, 'Rotation.Measured')
+        for i, c in enumerate(clients):
+            _, (_, node) = await nodes(c, 'Rotation.MotorTorque' if i == 0
+                                       else 'Rotation.Measured')
             sink = Samples()
-            sub = await c.create_subscription(10, sink)
+            sub = await c.create_subscription(1 if i == 0 else 10, sink)
             await sub.subscribe_data_change(node)
             sinks.append(sink)
-        base = await measured.read_value()
+        deadline = time.monotonic() + 60         # every subscription delivering
+        while min(len(x.values) for x in sinks) < 50 and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+        base = await measured.read_value()          # the speed it turns at
         toggles, k = [], 0
         start = time.monotonic()
         next_write = start
         while time.monotonic() - start < seconds:
             high = (k // period_writes) % 2 == 1
-            value = base + (1.0 if high else 0.0)
+            value = base + (step_rad_s if high else 0.0)
             t_write = time.monotonic()
             await setpoint.write_value(ua.DataValue(ua.Variant(value, ua.VariantType.Double)))
             await beat.write_value(ua.DataValue(ua.Variant(k % 2 ** 32, ua.VariantType.UInt32)))
@@ -944,9 +950,9 @@ async def _opcua_clients(url, seconds, listeners, period_writes):
             await c.disconnect()
 
 
-def _reaction_ms(samples, toggles, threshold=0.1):
+def _reaction_ms(samples, toggles, threshold):
     """For each toggle (time, direction): ms until the first sample arriving after it whose
-    value moved by more than ``threshold`` [rad/s] that way from the last one before it."""
+    value moved by more than ``threshold`` that way from the last one before it."""
     times = np.array([t for t, _, _ in samples])
     values = np.array([v for _, v, _ in samples])
     out = []
@@ -962,10 +968,11 @@ def _reaction_ms(samples, toggles, threshold=0.1):
 
 def bench_opcua(smoke):
     """Issue 34: the OPC UA bridge beside a real-time twin (processes, one ROS domain):
-    set-point write → the first Rotation.Measured sample that reflects it (the top-drive
-    speed moving > 0.1 rad/s toward the new set-point; a 1 rad/s step moves it ~0.3 rad/s in
-    one tick), at 100 Hz writes; 10 more clients subscribed at 10 ms; the twin's stamp gaps
-    meanwhile."""
+    set-point write → the first measurement that reflects it, at 100 Hz writes: the motor
+    torque (Rotation.MotorTorque, subscribed at 1 ms), which answers a set-point step of Δ
+    by K_p Δ in the tick that applies it (the speed only follows over several ticks: the
+    drive accelerates the string too); 10 more clients subscribed to Rotation.Measured at
+    10 ms; the twin's stamp gaps meanwhile."""
     try:
         import asyncio
 
@@ -979,6 +986,8 @@ def bench_opcua(smoke):
         return
     seconds = 5.0 if smoke else 60.0
     period_writes = 5                       # a set-point step every 50 ms
+    step = 0.05                             # [rad/s]: K_p Δ ~ 15 kN·m, below the limit
+    kp = load_scenario('rig_fem').model.top_drive.gains.proportional_Nms_rad
     with _bench_domain() as domain:
         env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
                    ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
@@ -1011,8 +1020,11 @@ def bench_opcua(smoke):
             if not _wait_port(port, bridge):
                 row('opcua', 'bridge', 'did not listen', '', '', False)
                 return
+            deadline = time.monotonic() + 120          # and the twin is publishing
+            while len(stamps) < 100 and time.monotonic() < deadline:
+                time.sleep(0.05)    # polling a condition against a deadline
             writes, toggles, sinks, start = asyncio.run(asyncio.wait_for(
-                _opcua_clients(url, seconds, 10, period_writes), seconds + 120))
+                _opcua_clients(url, seconds, 10, period_writes, step), seconds + 120))
         finally:
             spinning.clear()
             thread.join(5)
@@ -1027,13 +1039,19 @@ def bench_opcua(smoke):
             probe.destroy_node()
             rclpy.shutdown(context=ctx)
             _restore_environ(saved)
-    lat = _reaction_ms(sinks[0].values, toggles)
+    lat = _reaction_ms(sinks[0].values, toggles, 0.5 * kp * step)
+    if os.environ.get('DRILL_TWIN_BENCH_DEBUG'):
+        late = [round(t - start, 2) for (t, _), v in zip(toggles, lat) if v > 30]
+        print('latency percentiles 50/90/95/98/99/max:',
+              np.percentile(lat, [50, 90, 95, 98, 99, 100]).round(1), 'over 30 ms at', late,
+              file=sys.stderr)
     ok = lat.size > 0 and np.percentile(lat, 99) < 20.0
-    row('opcua', 'set-point write -> first Measured reflecting it (p50/p99)',
+    row('opcua', 'set-point write -> first measurement reflecting it (p50/p99)',
         f'{np.percentile(lat, 50):.1f}/{np.percentile(lat, 99):.1f}' if lat.size else 'none',
         'ms', 'p99 < 20 ms', None if smoke else bool(ok),
-        f'{writes} writes at 100 Hz, {len(toggles)} steps of 1 rad/s, {lat.size} reactions; '
-        'includes the wait for the next 10 ms tick and the 10 ms publishing interval')
+        f'{writes} writes at 100 Hz, {len(toggles)} steps of {step:g} rad/s, {lat.size} '
+        'reactions of Rotation.MotorTorque (> K_p step/2); includes the wait for the twin\'s '
+        'next 10 ms tick')
     shares = []
     for sink in sinks[1:]:
         window = [s for t, _, s in sink.values if start + 1.0 <= t <= start + seconds - 1.0]

@@ -123,7 +123,8 @@ def _function_block(folder, function):
 
 
 def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
-              has_block: bool = False, max_torque_Nm: float = 1.0e5) -> tuple:
+              has_block: bool = False, max_torque_Nm: float = 1.0e5,
+              speed_rad_s: float = 0.0, hook_load_N: float = 0.0) -> tuple:
     """The variables of the address space, with the ranges of the twin's configuration.
 
     Parameters
@@ -137,6 +138,10 @@ def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
         otherwise on a constant hook load (hook-load set-points).
     max_torque_Nm : float
         Initial value of ``Rotation.MaxTorque`` [N m].
+    speed_rad_s, hook_load_N : float
+        Initial values of ``Rotation.Setpoint`` [rad/s] and ``Hoisting.HookLoadSetpoint`` [N]:
+        the twin's configured operating point, so that a client reading the set-point before
+        it writes one reads what the twin runs at (until a set-point arrives).
     """
     hook_note = '' if not has_block else ' (not writable: this string hangs on a hoist; set ' \
         'BlockVelocitySetpoint)'
@@ -144,18 +149,22 @@ def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
         'load; set HookLoadSetpoint)'
     table = (
         Variable('Rotation', 'Setpoint', 'Double', 'top-drive (surface) speed set-point',
-                 '2A', 0.0, float(max_speed_rad_s), True, 'rotation', 'surface_speed_setpoint'),
+                 '2A', 0.0, float(max_speed_rad_s), True, 'rotation', 'surface_speed_setpoint',
+                 float(speed_rad_s)),
         Variable('Rotation', 'Measured', 'Double', 'measured top-drive speed', '2A',
                  ros='joint_states velocity[top_drive] (= surface/top_drive_speed)'),
         Variable('Rotation', 'SurfaceTorque', 'Double', 'surface (top-drive) torque', 'NU',
                  ros='joint_states effort[top_drive] (= surface/torque)'),
+        Variable('Rotation', 'MotorTorque', 'Double', "the top-drive motor's torque (what "
+                 'its drive reports; it answers a set-point in the tick that applies it)',
+                 'NU', ros='surface/motor_torque'),
         Variable('Rotation', 'MaxTorque', 'Double', 'surface torque limit: exceeding it is '
                  'reported (Diagnostics WARN); the twin has no torque-limited drive', 'NU',
                  0.0, 1.0e6, True, 'rotation', '(bridge only)', float(max_torque_Nm)),
         *_function_block('Rotation', 'rotation'),
         Variable('Hoisting', 'HookLoadSetpoint', 'Double', 'hook-load set-point' + hook_note,
                  'NEW', 0.0, float(string_weight_N), not has_block, 'hoisting',
-                 'hook_load_setpoint'),
+                 'hook_load_setpoint', float(hook_load_N)),
         Variable('Hoisting', 'BlockVelocitySetpoint', 'Double', 'block velocity set-point, '
                  'down-hole positive' + block_note, 'MTS', -10.0, 10.0, has_block, 'hoisting',
                  'block_velocity_setpoint'),

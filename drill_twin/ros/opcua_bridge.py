@@ -60,7 +60,10 @@ class OpcUaBridge(Node):
         weight = scenario.system.buoyed_weight_N(scenario.system.mud_density_kg_m3)
         has_block = (scenario.raw['model'].get('axial_top') or 'hook_load') in ('hoist',
                                                                                 'velocity')
-        table = variables(g('max_surface_speed_rad_s'), weight, has_block, g('max_torque_Nm'))
+        speed = scenario.groups.omega_o / scenario.scales.time_s
+        hook = 0.0 if has_block else weight - scenario.groups.W_o * scenario.scales.force_N
+        table = variables(g('max_surface_speed_rad_s'), weight, has_block, g('max_torque_Nm'),
+                          min(speed, g('max_surface_speed_rad_s')), hook)
         sensor, latched = qos_profile(T.SENSOR), qos_profile(T.SETPOINT)
         self.pub = {name: self.create_publisher(Float64, name, latched) for name in _SETPOINTS}
         self.diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics',
@@ -76,6 +79,8 @@ class OpcUaBridge(Node):
         self._estimate_stamp = None
         subscribe = self.create_subscription
         subscribe(JointState, 'joint_states', self._on_joints, sensor)
+        subscribe(Float64, 'surface/motor_torque', lambda m: self.server.update(
+            {'Rotation.MotorTorque': m.data}, None), sensor)
         subscribe(Vector3Stamped, 'bit/penetration', self._on_penetration, sensor)
         subscribe(Vector3Stamped, 'bit/stick_slip', self._on_stick_slip, sensor)
         subscribe(TwistWithCovarianceStamped, 'estimate/bit/velocity', self._on_est_velocity,
