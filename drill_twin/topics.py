@@ -94,6 +94,7 @@ TOPICS = (
     Topic('hook_load_setpoint', FLOAT64, SETPOINT, 'setpoint'),
     Topic('surface_speed_command', FLOAT64, COMMAND, 'setpoint'),
     Topic('block_velocity_setpoint', FLOAT64, SETPOINT, 'setpoint'),
+    Topic('torque_limit_setpoint', FLOAT64, SETPOINT, 'setpoint'),
     Topic('bit/velocity', 'geometry_msgs/msg/TwistStamped', SENSOR, 'measurement',
           lambda m, st: {'header': _header(st), 'twist': {
               'linear': {'x': float(m['bit_axial_speed_m_s'])},

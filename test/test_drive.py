@@ -107,3 +107,38 @@ def test_motor_torque_channel():
     m = twin.measurements()
     assert m['motor_torque_Nm'] == m['surface_torque_Nm']
     assert BY_NAME['surface/motor_torque'].fields(m, {}) == {'data': m['surface_torque_Nm']}
+
+
+def test_a_torque_limit_clips_the_motor_and_the_top_drive_slows():
+    """rig_fem drills at ~2.4 kN·m; a 1.5 kN·m torque limit (the rig's VFD limit, OPC UA
+    Rotation.MaxTorque) clips the PI drive's demand: the motor torque never exceeds it
+    (exactly: the clip is in the kernel), so the motor cannot hold the set-point and slows;
+    lifting the limit back to the rated 50 kN·m recovers the speed. Out of range or on a
+    prescribed-speed string: refused, the last limit kept."""
+    from drill_twin.config.scenario import load_scenario
+    from drill_twin.runtime.digital_twin import DigitalTwin, SetpointError
+    twin = DigitalTwin(load_scenario('rig_fem'))
+    assert twin.rated_torque_Nm == 50.0e3 == twin.torque_limit_setpoint
+    twin.advance_to(2.0)
+    before = twin.measurements()
+    assert before['motor_torque_Nm'] > 2.0e3
+    twin.apply('torque_limit_setpoint', 1.5e3)
+    torques, speeds = [], []
+    for k in range(1, 301):
+        twin.advance_to(2.0 + 0.01 * k)
+        m = twin.measurements()
+        torques.append(m['motor_torque_Nm'])
+        speeds.append(m['top_drive_speed_rad_s'])
+    assert max(torques) <= 1.5e3 * (1 + 1e-12)
+    assert speeds[-1] < speeds[100] < before['top_drive_speed_rad_s'] - 0.05   # slowing
+    for bad in (-1.0, 60.0e3, math.nan):
+        with pytest.raises(SetpointError):
+            twin.apply('torque_limit_setpoint', bad)
+    assert twin.torque_limit_setpoint == 1.5e3
+    twin.apply('torque_limit_setpoint', 50.0e3)
+    twin.advance_to(12.0)
+    assert twin.measurements()['top_drive_speed_rad_s'] == pytest.approx(
+        twin.surface_speed_setpoint, rel=0.05)
+    stiff = DigitalTwin(load_scenario('benchmark_fem'))
+    with pytest.raises(SetpointError, match='motor top drive'):
+        stiff.apply('torque_limit_setpoint', 1.0e3)

@@ -124,7 +124,8 @@ def _function_block(folder, function):
 
 def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
               has_block: bool = False, max_torque_Nm: float = 1.0e5,
-              speed_rad_s: float = 0.0, hook_load_N: float = 0.0) -> tuple:
+              speed_rad_s: float = 0.0, hook_load_N: float = 0.0,
+              motor_drive: bool = True) -> tuple:
     """The variables of the address space, with the ranges of the twin's configuration.
 
     Parameters
@@ -137,7 +138,11 @@ def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
         The string hangs on a hoist / imposed block velocity (block velocity set-points);
         otherwise on a constant hook load (hook-load set-points).
     max_torque_Nm : float
-        Initial value of ``Rotation.MaxTorque`` [N m].
+        The motor drive's rated torque limit [N m]: ``Rotation.MaxTorque``'s initial value
+        and upper bound.
+    motor_drive : bool
+        The twin turns the string with a PI motor drive (``Rotation.MaxTorque`` writable);
+        otherwise the speed is prescribed and the limit only reported against.
     speed_rad_s, hook_load_N : float
         Initial values of ``Rotation.Setpoint`` [rad/s] and ``Hoisting.HookLoadSetpoint`` [N]:
         the twin's configured operating point, so that a client reading the set-point before
@@ -158,9 +163,10 @@ def variables(max_speed_rad_s: float = 40.0, string_weight_N: float = 1.0e7,
         Variable('Rotation', 'MotorTorque', 'Double', "the top-drive motor's torque (what "
                  'its drive reports; it answers a set-point in the tick that applies it)',
                  'NU', ros='surface/motor_torque'),
-        Variable('Rotation', 'MaxTorque', 'Double', 'surface torque limit: exceeding it is '
-                 'reported (Diagnostics WARN); the twin has no torque-limited drive', 'NU',
-                 0.0, 1.0e6, True, 'rotation', '(bridge only)', float(max_torque_Nm)),
+        Variable('Rotation', 'MaxTorque', 'Double', "the top-drive motor's torque limit: the "
+                 "drive's demand is clipped to it (at most the rated limit); a surface torque "
+                 'above it is reported (Diagnostics WARN)', 'NU', 0.0, float(max_torque_Nm),
+                 bool(motor_drive), 'rotation', 'torque_limit_setpoint', float(max_torque_Nm)),
         *_function_block('Rotation', 'rotation'),
         Variable('Hoisting', 'HookLoadSetpoint', 'Double', 'hook-load set-point' + hook_note,
                  'NEW', 0.0, float(string_weight_N), not has_block, 'hoisting',

@@ -386,7 +386,8 @@ def surface_torque_perturbation(x, m):
 def _motor_drive(tau, x, dx, m, s, w):
     """Motor torque of the PI top drive (total, units C) and the derivatives of its
     integral ϑ_p and torque reference T_ref (docs/control.md, eqs C.1-C.4): sensors
-    delayed by ``t_delay``, torque feedback ``g_t``, limit ``t_max``, back-calculation
+    delayed by ``t_delay``, torque feedback ``g_t``, limit ``t_max`` (or the lower one the
+    input ``torque_limit`` sets), back-calculation
     anti-windup with tracking time kp/ki."""
     top = m.top
     L = state_layout(m.axial.shape[1], m.torsional.shape[1])
@@ -401,7 +402,8 @@ def _motor_drive(tau, x, dx, m, s, w):
         torque = surface_torque_perturbation(x, m)
     error = om_p - top.g_t * (torque - x[d + DRIVE.torque_reference]) - speed
     demand = top.T_o + top.kp * error + top.ki * x[d + DRIVE.integral]
-    motor = min(max(demand, -top.t_max), top.t_max)
+    limit = min(top.t_max, s.inputs[INPUT.torque_limit])
+    motor = min(max(demand, -limit), limit)
     dx[d + DRIVE.integral] = error + (motor - demand) / top.kp
     dx[d + DRIVE.torque_reference] = (torque - x[d + DRIVE.torque_reference]) / top.t_filter \
         if top.t_filter > 0.0 else 0.0

@@ -54,8 +54,8 @@ AXIAL = indices('Axial', ('down', 'up', 'stuck'))
 #: then one per blade group from ``contact`` on
 SWITCH = indices('Switch', ('angular', 'axial_low', 'axial_high', 'contact'))
 #: run-time inputs: surface (motor) speed command, extra axial force on the top, block
-#: velocity
-INPUT = indices('Input', ('speed_command', 'axial_force', 'block_velocity'))
+#: velocity, the PI motor drive's torque limit in force (at most its rated ``Top.t_max``)
+INPUT = indices('Input', ('speed_command', 'axial_force', 'block_velocity', 'torque_limit'))
 #: counters (int array)
 COUNTER = indices('Counter', ('steps', 'events', 'impulses', 'status', 'bad_index',
                               'writes'))

@@ -173,6 +173,7 @@ class Simulation:
         self.inputs = np.zeros(len(INPUT))
         self.inputs[INPUT.speed_command] = groups.omega_o
         self.inputs[INPUT.block_velocity] = groups.upsilon_o
+        self.inputs[INPUT.torque_limit] = self.top.t_max
         na, nt = self.A.shape[1], self.T.shape[1]
         self.n_axial, self.n_torsional = na, nt
         self.x = np.zeros(state_layout.py_func(na, nt).size)
@@ -344,6 +345,13 @@ class Simulation:
         if not math.isfinite(force):
             raise ParameterError('axial top force must be finite')
         self.inputs[INPUT.axial_force] = force
+
+    def set_torque_limit(self, limit: float):
+        """Torque limit of the PI motor drive in force (units C, ≥ 0): at most the drive's
+        rated limit; a larger value leaves the rated one."""
+        if not (math.isfinite(limit) and limit >= 0.0):
+            raise ParameterError(f'torque limit must be finite and >= 0, got {limit!r}')
+        self.inputs[INPUT.torque_limit] = limit
 
     def set_block_velocity(self, velocity: float):
         """Command the block (top of an imposed-velocity string, or drum of a hoist) to move

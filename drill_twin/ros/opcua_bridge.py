@@ -41,7 +41,8 @@ DIAGNOSTICS_NAME = 'drill_twin: opcua'
 #: the twin's status in /diagnostics
 TWIN_STATUS = 'drill_twin: model'
 SERVICE_TIMEOUT_S = 5.0
-_SETPOINTS = ('surface_speed_setpoint', 'hook_load_setpoint', 'block_velocity_setpoint')
+_SETPOINTS = ('surface_speed_setpoint', 'hook_load_setpoint', 'block_velocity_setpoint',
+              'torque_limit_setpoint')
 
 
 def _ns(stamp) -> int:
@@ -62,8 +63,10 @@ class OpcUaBridge(Node):
                                                                                 'velocity')
         speed = scenario.groups.omega_o / scenario.scales.time_s
         hook = 0.0 if has_block else weight - scenario.groups.W_o * scenario.scales.force_N
-        table = variables(g('max_surface_speed_rad_s'), weight, has_block, g('max_torque_Nm'),
-                          min(speed, g('max_surface_speed_rad_s')), hook)
+        drive = getattr(scenario.model, 'top_drive', None)
+        rated = g('max_torque_Nm') if drive is None else drive.torque_limit_Nm
+        table = variables(g('max_surface_speed_rad_s'), weight, has_block, rated,
+                          min(speed, g('max_surface_speed_rad_s')), hook, drive is not None)
         sensor, latched = qos_profile(T.SENSOR), qos_profile(T.SETPOINT)
         self.pub = {name: self.create_publisher(Float64, name, latched) for name in _SETPOINTS}
         self.diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics',

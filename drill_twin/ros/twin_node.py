@@ -268,6 +268,7 @@ class TwinNode(LifecycleNode):
                 ('hook_load_setpoint', Float64, self._on_hook_load, SETPOINT_QOS),
                 ('surface_speed_command', Float64, self._on_command, COMMAND_QOS),
                 ('block_velocity_setpoint', Float64, self._on_block, SETPOINT_QOS),
+                ('torque_limit_setpoint', Float64, self._on_torque_limit, SETPOINT_QOS),
                 (T.COMMANDS_TOPIC, Float64MultiArray, self._on_commands, SETPOINT_QOS)):
             add(self.create_subscription(cls, name, callback, qos))
         roles = ('measurement', 'advisory', 'scene') + (('clock',) if self.fast else ())
@@ -499,6 +500,9 @@ class TwinNode(LifecycleNode):
     def _on_command(self, msg):
         if self._apply_speed(msg.data, 'surface_speed_command'):
             self.arbiter.on_command(msg.data, time.monotonic())
+
+    def _on_torque_limit(self, msg):
+        self.session.apply('torque_limit_setpoint', msg.data)
 
     def _on_hook_load(self, msg):
         self._operator_takes_over('hook_load_setpoint')

@@ -90,6 +90,7 @@ class DigitalTwin:
         self.hook_load_N = self.string_weight_N - self.nominal_wob_N
         self.surface_speed_setpoint = scenario.groups.omega_o / self.scales.time_s
         self.block_velocity_setpoint = scenario.groups.upsilon_o * self.scales.speed_m_s
+        self.torque_limit_setpoint = self.rated_torque_Nm
         self.axial_top = scenario.raw['model'].get('axial_top') or 'hook_load'
         self.rejected = 0
         self._window = deque()
@@ -121,7 +122,8 @@ class DigitalTwin:
     SETPOINTS = {'surface_speed_setpoint': 'set_surface_speed',
                  'surface_speed_command': 'set_surface_speed',
                  'hook_load_setpoint': 'set_hook_load',
-                 'block_velocity_setpoint': 'set_block_velocity'}
+                 'block_velocity_setpoint': 'set_block_velocity',
+                 'torque_limit_setpoint': 'set_torque_limit'}
 
     def apply(self, name: str, value: float):
         """Apply the set-point of topic ``name`` (a key of :data:`SETPOINTS`); a value the
@@ -151,6 +153,27 @@ class DigitalTwin:
         self.sim.set_axial_top_force((self.string_weight_N - self.nominal_wob_N - value)
                                      / self.scales.force_N)
         self.hook_load_N = value
+
+    @property
+    def rated_torque_Nm(self) -> float | None:
+        """The motor drive's rated torque limit [N·m] (``drive.torque_limit_Nm``); None
+        without a PI motor drive (model.top_drive not motor)."""
+        drive = getattr(self.sim.model, 'top_drive', None) or \
+            getattr(self.scenario.model, 'top_drive', None)
+        return None if drive is None else float(drive.torque_limit_Nm)
+
+    def set_torque_limit(self, torque_Nm: float):
+        """The motor drive's torque limit in force [N·m], in [0, the rated limit]: the
+        drive's PI demand is clipped to it (a rig's VFD torque limit, e.g. for a
+        start-up or a stuck pipe)."""
+        rated = self.rated_torque_Nm
+        if rated is None:
+            self.rejected += 1
+            raise SetpointError('a torque limit needs a motor top drive (model.top_drive: '
+                                'motor); this string turns at a prescribed speed')
+        value = self._checked('torque limit', torque_Nm, 0.0, rated, 'N m')
+        self.sim.set_torque_limit(value / self.scales.torque_Nm)
+        self.torque_limit_setpoint = value
 
     @property
     def has_block(self) -> bool:

@@ -158,8 +158,9 @@ OPCUA_SETTINGS = (
             'twin\'s parameter)', 'rad/s', 0.1, 100.0, read_only=True),
     Setting('max_refresh_delay_s', 0.5, 'initial MaxRefreshDelay of each function', 's',
             0.05, 10.0, read_only=True),
-    Setting('max_torque_Nm', 1.0e5, 'initial Rotation.MaxTorque', 'N m', 0.0, 1.0e6,
-            read_only=True),
+    Setting('max_torque_Nm', 1.0e5, 'Rotation.MaxTorque of a twin without a motor top drive '
+            '(reported against only); with one, MaxTorque starts at the drive\'s rated limit',
+            'N m', 0.0, 1.0e6, read_only=True),
 )
 
 
