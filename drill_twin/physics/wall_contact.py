@@ -134,15 +134,15 @@ def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: floa
     r = np.asarray(radius_m, float)
     force = scales.mass_kg * scales.depth_m / scales.time_s ** 2       # M d*/t*² [N]
     kappa = rim_inertia_factor(scales)
-    columns = []
-    for k in range(n.size):
+    nodes = [k for k in range(n.size) if k - axial_offset >= 0 and k - torsional_offset >= 0
+             and n[k] > 0.0 and mu_s > 0.0]          # not a prescribed node, and in contact
+    out = np.zeros((len(WALL), len(nodes)))
+    for j, k in enumerate(nodes):
         ia, it = k - axial_offset, k - torsional_offset
-        if ia < 0 or it < 0 or not (n[k] > 0.0 and mu_s > 0.0):
-            continue                                    # a prescribed node, or no contact
         rho = r[k] / scales.depth_m
-        columns.append((ia, it, mu_s * n[k] / force, mu_d * n[k] / force, rho,
-                        axial_mass[ia], kappa * torsional_mass[it] / rho ** 2))
-    if not columns:
-        return NO_WALL.copy()
-    out = np.array(columns, float).T
-    return np.ascontiguousarray(out[list(WALL)])
+        out[WALL.axial_dof, j], out[WALL.torsional_dof, j] = ia, it
+        out[WALL.static, j], out[WALL.dynamic, j] = mu_s * n[k] / force, mu_d * n[k] / force
+        out[WALL.radius, j] = rho
+        out[WALL.axial_mass, j] = axial_mass[ia]
+        out[WALL.tangential_mass, j] = kappa * torsional_mass[it] / rho ** 2
+    return out
