@@ -43,17 +43,25 @@ __all__ = [
 ]
 
 
-def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
+def checked_number(name: str, value, low: float | None = None,
+                   open_low: bool = False) -> float:
+    """``value`` as a finite float, at least ``low`` (above it with ``open_low``); else one
+    :class:`~drill_twin.errors.ParameterError` line naming ``name``: the one check of a
+    physical number's type, finiteness and lower bound."""
     try:
         value = float(value)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f'{name} must be a number, got {value!r}') from exc
     if not math.isfinite(value):
         raise ParameterError(f'{name} must be finite, got {value!r}')
-    if value < 0 or (value == 0 and not allow_zero):
-        bound = '>= 0' if allow_zero else '> 0'
-        raise ParameterError(f'{name} must be {bound}, got {value!r}')
+    if low is not None and (value < low or (open_low and value == low)):
+        raise ParameterError(f"{name} must be {'>' if open_low else '>='} {low:g}, "
+                             f'got {value!r}')
     return value
+
+
+def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
+    return checked_number(name, value, 0.0, open_low=not allow_zero)
 
 
 @dataclass(frozen=True)

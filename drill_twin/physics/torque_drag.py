@@ -38,7 +38,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from ..errors import ParameterError
-from .parameters import GRAVITY_M_S2
+from .parameters import GRAVITY_M_S2, checked_number
 from .well_path import WellPath
 
 __all__ = ['Motion', 'PICK_UP', 'SLACK_OFF', 'ROTATING', 'TorqueDragResult',
@@ -50,14 +50,7 @@ DEFAULT_STEP_M = 2.0
 
 
 def _finite(name: str, value, minimum: float | None = None) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f'{name} must be a number, got {value!r}') from exc
-    if not math.isfinite(value) or (minimum is not None and value < minimum):
-        bound = '' if minimum is None else f' and >= {minimum:g}'
-        raise ParameterError(f'{name} must be finite{bound}, got {value!r}')
-    return value
+    return checked_number(name, value, minimum)
 
 
 @dataclass(frozen=True)
