@@ -164,6 +164,10 @@ def test_in_a_deviated_well_the_string_lies_on_the_well_path():
     p = dict(zip(PROFILE_ROWS, np.array(fields['data']).reshape(rows, nodes)))
     vertical = p['measured_depth_m'] < 499.0
     assert np.all(p['contact_force_N'][vertical] == 0.0)
+    # the tension at the top is what the hook carries: the axial part of the weight less
+    # the WOB (the elements' cos I at their middles against the statics' integral: the
+    # midpoint rule's O(h²) on 12.5 m elements, ~1e-6 here)
+    assert p['tension_N'][0] == pytest.approx(m['hook_load_N'], rel=1e-4)
     assert np.all(p['contact_force_N'][p['measured_depth_m'] > 501.0] > 0.0)
 
 

@@ -103,19 +103,25 @@ def rest_state(sim, gap: float):
     return float(z_p)
 
 
-def element_weights_below_N(system, element_lengths_m, section_elements) -> np.ndarray:
-    """Buoyed weight hanging below the top of every element [N] (top to bottom)."""
+def element_weights_below_N(system, element_lengths_m, section_elements,
+                            cos_inclination=None) -> np.ndarray:
+    """Buoyed weight hanging below the top of every element [N] (top to bottom); with
+    ``cos_inclination`` (cos I at every element's middle, a deviated well) its axial part,
+    what the tension carries when the wall takes the rest (soft string, no axial drag)."""
     weights = []
     for sec, n in zip(system.sections, section_elements):
         per = sec.buoyed_weight_N(system.mud_density_kg_m3) / n
         weights += [per] * n
     weights = np.asarray(weights)
+    if cos_inclination is not None:
+        weights = weights * np.asarray(cos_inclination, float)
     return np.cumsum(weights[::-1])[::-1]
 
 
-def element_tension_N(scenario, sim) -> np.ndarray:
+def element_tension_N(scenario, sim, cos_inclination=None) -> np.ndarray:
     """Tension of every finite element of the string now [N], top to bottom (the
-    weight below and the nominal WOB of the reference state, plus the elastic change)."""
+    weight below — its axial part in a deviated well, ``cos_inclination`` per element — and
+    the nominal WOB of the reference state, plus the elastic change)."""
     model = sim.model
     if model.element_lengths_m is None:
         raise ValueError('element tensions need a finite-element string')
@@ -125,7 +131,7 @@ def element_tension_N(scenario, sim) -> np.ndarray:
     if hasattr(ax, 'expand'):                        # a reduced string: its nodes
         ax, u = ax.full, ax.expand(u)
     below = element_weights_below_N(scenario.system, model.element_lengths_m,
-                                    model.section_elements)
+                                    model.section_elements, cos_inclination)
     reference = below - sim.groups.W_o * s.force_N
     elastic = -ax.stiffness[2, :-1] * np.diff(u)    # k_e (u_{e+1} - u_e) between DOFs
     if ax.n == len(model.element_lengths_m):         # imposed top: its node was eliminated

@@ -101,7 +101,7 @@ def _nodal(chain, values, bit_value, top_value, nodes):
     return values
 
 
-def string_profile(twin, m: dict | None = None) -> dict:
+def string_profile(twin, m: dict | None = None, cos_inclination=None) -> dict:
     """The string now, node by node from the top (``string/profile``, module docstring):
     ``depth_m`` (= ``measured_depth_m``: each node's station along the configured string,
     the top 0 and the bit the string's length, moved by its axial displacement [m]),
@@ -109,7 +109,8 @@ def string_profile(twin, m: dict | None = None) -> dict:
     element below the node; at the bit the torque on bit and minus the weight on bit) and
     ``contact_force_N`` (the wall's normal force on the node).  Finite-element strings give
     every node, lumped models the top and the bit.  ``m``: the tick's measurements (default:
-    :meth:`~drill_twin.runtime.digital_twin.DigitalTwin.peek`)."""
+    :meth:`~drill_twin.runtime.digital_twin.DigitalTwin.peek`); ``cos_inclination``: cos I
+    at every element's middle in a deviated well (the tension's weight is its axial part)."""
     m = twin.peek() if m is None else m
     sim = twin.sim
     lengths = getattr(sim.model, 'element_lengths_m', None)
@@ -138,7 +139,8 @@ def string_profile(twin, m: dict | None = None) -> dict:
         axial = np.interp(stations, [0.0, stations[-1]], [m['block_position_m'],
                                                            m['bit_depth_m']])
     torque = np.append(_element_torques(twin, nodes, m), m['torque_on_bit_Nm'])
-    tension = np.append(_element_tensions(twin, nodes, m), -m['weight_on_bit_N'])
+    tension = np.append(_element_tensions(twin, nodes, m, cos_inclination),
+                        -m['weight_on_bit_N'])
     return _named(stations + axial, speed, torque, tension, _contact_forces(twin, nodes))
 
 
@@ -168,12 +170,12 @@ def _element_torques(twin, nodes, m) -> np.ndarray:
     return (twin.scenario.groups.T_o + twist) * scale
 
 
-def _element_tensions(twin, nodes, m) -> np.ndarray:
+def _element_tensions(twin, nodes, m, cos_inclination=None) -> np.ndarray:
     """Tension in every element [N] (:func:`~drill_twin.physics.statics.element_tension_N`),
     or the hook load throughout where it cannot be had."""
     from ..physics.statics import element_tension_N
     try:
-        tension = element_tension_N(twin.scenario, twin.sim)
+        tension = element_tension_N(twin.scenario, twin.sim, cos_inclination)
     except (ValueError, AttributeError, TypeError):
         tension = None
     if tension is None or tension.size != nodes - 1:
@@ -260,6 +262,13 @@ class StringScene:
         #: line width and marker size [m]: visible at the scale of the whole string
         self.width_m = max(0.005 * self.length_m, 2.0 * self.bit_radius_m)
         self.hole = _Hole(_well_path(twin.scenario, self.length_m))
+        lengths = getattr(twin.scenario.model, 'element_lengths_m', None)
+        #: cos I at every element's middle (None: a vertical well or a lumped model)
+        self.cos_inclination = None
+        if lengths is not None and twin.scenario.wall is not None:
+            stations = np.concatenate([[0.0], np.cumsum(lengths)])
+            middles = np.minimum(0.5 * (stations[:-1] + stations[1:]), self.hole.depth_m)
+            self.cos_inclination = np.cos(self.hole.path.inclination(middles))
 
     # --- latched --------------------------------------------------------------------
     def static_messages(self, stamp: dict) -> list:
@@ -309,7 +318,7 @@ class StringScene:
 
     def draw(self, m: dict, stamp: dict) -> list:
         """``/tf``, ``string/markers`` and ``string/profile`` now (whether due or not)."""
-        profile = string_profile(self.twin, m)
+        profile = string_profile(self.twin, m, self.cos_inclination)
         bit_depth = float(profile['depth_m'][-1])
         points = self.hole.points(profile['depth_m'])
         bit_at = _xyz(points[-1])
