@@ -61,11 +61,14 @@ def _loop_over_opcua(url, controller, seconds):
             seen, count, start, out = 0, 0, None, []
             while start is None or time.monotonic() - start < seconds:
                 if len(samples.values) > seen:
+                    # every sample steps the controller (its integral advances 10 ms each),
+                    # however many arrived since the last pass; the last command is sent
+                    for t, y, _ in samples.values[seen:]:
+                        start = t if start is None else start
+                        out.append((t - start, y))
+                        u = controller(y)
                     seen = len(samples.values)
-                    t, y, _ = samples.values[-1]
-                    start = t if start is None else start
-                    out.append((t - start, y))
-                    await setpoint.write_value(ua.DataValue(ua.Variant(controller(y),
+                    await setpoint.write_value(ua.DataValue(ua.Variant(u,
                                                                        ua.VariantType.Double)))
                     count += 1
                     await beat.write_value(ua.DataValue(ua.Variant(count % 2 ** 32,
@@ -94,11 +97,12 @@ def _loop_over_ros(controller, seconds):
         while start is None or time.monotonic() - start < seconds:
             rig.ex.spin_once(timeout_sec=0.002)
             if len(samples) > seen:
+                for t, y in samples[seen:]:         # as over OPC UA: every sample steps it
+                    start = t if start is None else start
+                    out.append((t - start, y))
+                    u = controller(y)
                 seen = len(samples)
-                t, y = samples[-1]
-                start = t if start is None else start
-                out.append((t - start, y))
-                pub.publish(Float64(data=controller(y)))
+                pub.publish(Float64(data=u))
         return out
     finally:
         rig.close()
