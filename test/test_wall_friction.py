@@ -225,31 +225,13 @@ def test_with_equal_static_and_dynamic_friction_the_oscillation_decays():
     and the oscillation's amplitude falls window after window (Coulomb friction of
     constant magnitude does not damp; the top drive's PI loop does, slowly)."""
     sc = load_scenario('wells/well_b', ['well.dynamic_friction_ratio=1.0'])
-    t, bit = _run_startup(sc, 200.0)
+    t, bit, _ = _startup_series(sc, 200.0, sample_s=0.01, every_step=False)
     free = t[np.argmax(bit > 0.0)]
     after = t > free + 5.0
     assert np.all(bit[after] > 0.0)
     windows = [np.ptp(bit[(t >= a) & (t < a + 25.0)]) for a in (25.0, 75.0, 125.0, 175.0)]
     assert all(b < a for a, b in zip(windows, windows[1:]))
     assert windows[-1] < 0.8 * windows[0]
-
-
-def _run_startup(sc, duration_s, sample_s=0.01):
-    """The start-up of offbottom_startup_well_b.yaml driven directly: at rest, the
-    set-point 40 rpm (1 - exp(-t/1 s)); bit speed [rad/s] every ``sample_s``."""
-    sim = Simulation.from_scenario(sc)
-    ts = sc.scales.time_s
-    sim.set_wall(sc.wall_at(0.0))                       # off bottom
-    rest_state(sim, 1.0 / sc.scales.depth_m)
-    chunk = max(1, round(sample_s / ts / sim.h))
-    tau0, out = sim.time, []
-    while (sim.time - tau0) * ts < duration_s:
-        t = (sim.time - tau0) * ts
-        sim.set_surface_speed(40 * RPM * ts * (1.0 - math.exp(-t)))
-        tr = sim.advance(chunk, record_every=chunk)
-        out.append((tr.tau[-1], tr.bit_angular_speed[-1], tr.surface_torque[-1]))
-    tau, bit, torque = np.array(out).T
-    return (tau - tau0) * ts, bit / ts
 
 
 @pytest.mark.slow
@@ -268,7 +250,10 @@ def test_the_cycle_converges_with_the_mesh():
     assert np.all(np.abs(coarse / fine - 1.0) < 0.03), (coarse, fine)
 
 
-def _startup_series(sc, duration_s, sample_s=0.005):
+def _startup_series(sc, duration_s, sample_s=0.005, every_step=True):
+    """The start-up of offbottom_startup_well_b.yaml driven directly: at rest off bottom,
+    the set-point 40 rpm (1 - exp(-t/1 s)) updated every ``sample_s``; time [s], bit speed
+    [rad/s] and surface torque [N·m] at every step (or at the end of each ``sample_s``)."""
     sim = Simulation.from_scenario(sc)
     ts = sc.scales.time_s
     sim.set_wall(sc.wall_at(0.0))                       # off bottom
@@ -278,7 +263,7 @@ def _startup_series(sc, duration_s, sample_s=0.005):
     while (sim.time - tau0) * ts < duration_s:
         t = (sim.time - tau0) * ts
         sim.set_surface_speed(40 * RPM * ts * (1.0 - math.exp(-t)))
-        tr = sim.advance(chunk, record_every=1)
+        tr = sim.advance(chunk, record_every=1 if every_step else chunk)
         rows.append(np.stack([tr.tau, tr.bit_angular_speed, tr.surface_torque]))
     tau, bit, torque = np.concatenate(rows, axis=1)
     return (tau - tau0) * ts, bit / ts, torque * sc.scales.torque_Nm
