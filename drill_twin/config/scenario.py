@@ -77,6 +77,9 @@ class Scenario:
     #: the statics at the operating point's weight on bit (:meth:`wall_at` for another);
     #: None in a vertical well
     wall: object | None = None
+    #: the surveyed well path of a string with wall friction (``well.survey``, read once);
+    #: None otherwise (:func:`~drill_twin.config.well.scenario_well` gives the path then)
+    well_path: object | None = None
 
     @property
     def integrated_model(self) -> StringModel:
@@ -88,7 +91,8 @@ class Scenario:
         weight on bit [N] (0: off bottom); None in a vertical well."""
         if self.wall is None:
             return None
-        return wall_of(self.raw, self.system, self.model, self.scales, weight_on_bit_N)
+        return wall_of(self.raw, self.system, self.model, self.scales, weight_on_bit_N,
+                       self.well_path)
 
     @property
     def is_si(self) -> bool:
@@ -374,9 +378,11 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
             dur, rec = sim['duration'], sim['record_interval']
         drive = _top_drive(cfg, system, groups) \
             if cfg['model'].get('top_drive') == 'motor' and system is not None else None
+        path = _surveyed_path(cfg, system)
+        rubs = _rubs(path, system)
         model = _build_model(cfg['model'], groups, kappa_d, system, cfg.get('rig'), drive,
-                             cfg.get('well'), lumped=_rubs(cfg, system))
-        wall = _wall(cfg, system, model, scales, groups)
+                             cfg.get('well'), lumped=rubs)
+        wall = _wall(cfg, system, model, scales, groups, path) if rubs else None
         # linear analyses (check_step False) never integrate: no reduction to build; the
         # wall's friction acts on the nodes, which a reduction does not keep
         simulated = _simulated_model(model, sim) if check_step and wall is None else None
@@ -399,29 +405,37 @@ def scenario_from_dict(raw: dict, source: str = 'configuration',
                     record_interval=max(rec, dt),
                     initial_perturbation=dict(sim['initial_perturbation']),
                     perturb_where=sim['perturb'], scales=scales, system=system,
-                    kappa_d=kappa_d, raw=cfg, simulated_model=simulated, wall=wall)
+                    kappa_d=kappa_d, raw=cfg, simulated_model=simulated, wall=wall,
+                    well_path=path)
 
 
-def _rubs(cfg, system) -> bool:
-    """The string of ``cfg`` touches the wall somewhere: a survey that leaves the vertical
-    above the bit, and friction (its finite elements then have lumped masses)."""
+def _surveyed_path(cfg, system):
+    """The well path of an SI configuration whose string may rub on the wall (a survey and
+    friction), read once for the scenario; None otherwise (the vertical well, built when
+    asked: :func:`~drill_twin.config.well.scenario_well`)."""
     well = cfg.get('well') or {}
     if system is None or well.get('survey') is None or not well.get('friction_factor', 0.25):
+        return None
+    return well_of(cfg, system)
+
+
+def _rubs(path, system) -> bool:
+    """The string touches the wall somewhere: its surveyed ``path``
+    (:func:`_surveyed_path`) leaves the vertical above the bit (its finite elements then
+    have lumped masses)."""
+    if path is None:
         return False
-    path = well_of(cfg, system)
     stations = np.searchsorted(path.measured_depth_m, system.total_length_m) + 1
     return bool(np.any(path.inclination_rad[:stations] > 0.0))   # to the leg of the bit
 
 
-def _wall(cfg, system, model, scales, groups):
-    """The wall contact of a finite-element string in the configured well (None: vertical
-    or frictionless); the statics at the operating point's weight on bit."""
-    if not _rubs(cfg, system):
-        return None
+def _wall(cfg, system, model, scales, groups, path):
+    """The wall contact of a finite-element string rubbing on the wall of the configured
+    well (:func:`_rubs`); the statics at the operating point's weight on bit."""
     if model.element_lengths_m is None:
         raise ParameterError(f"well.survey: model.type {cfg['model']['type']} has no nodes for "
                              "the wall's friction in a deviated well; use model.type fem")
-    return wall_of(cfg, system, model, scales, groups.W_o * scales.force_N)
+    return wall_of(cfg, system, model, scales, groups.W_o * scales.force_N, path)
 
 
 #: a reduction that keeps more than this fraction of the DOFs is not worth its truncation:

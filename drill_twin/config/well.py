@@ -79,8 +79,10 @@ def _station(path: Path, number: int, line: str) -> tuple:
 
 def scenario_well(scenario) -> WellPath:
     """The well path of an SI scenario: its ``well.survey``, else the vertical well to the
-    string's length.  A survey shorter than the string is refused."""
-    return well_of(scenario.raw, scenario.system)
+    string's length (read once, when the scenario is built: ``scenario.well_path``).  A
+    survey shorter than the string is refused."""
+    path = getattr(scenario, 'well_path', None)
+    return path if path is not None else well_of(scenario.raw, scenario.system)
 
 
 def well_of(cfg: dict, system) -> WellPath:
@@ -97,18 +99,20 @@ def well_of(cfg: dict, system) -> WellPath:
     return path
 
 
-def wall_of(cfg: dict, system, model, scales, weight_on_bit_N: float = 0.0):
+def wall_of(cfg: dict, system, model, scales, weight_on_bit_N: float = 0.0,
+            path: WellPath | None = None):
     """The kernel's wall array (:func:`~drill_twin.physics.wall_contact.pack_wall`) of a
-    finite-element ``model`` in the configured well, or None in a vertical well (no
-    survey) or without friction.  The contact forces are the statics' of the string
-    rotating in place at ``weight_on_bit_N`` [N] (docs/physics.md §9)."""
+    finite-element ``model`` in the configured well (``path``: its well path, if already
+    read), or None in a vertical well (no survey) or without friction.  The contact forces
+    are the statics' of the string rotating in place at ``weight_on_bit_N`` [N]
+    (docs/physics.md §9)."""
     well = cfg.get('well') or {}
     if well.get('survey') is None:
         return None
     mu_s = well.get('friction_factor', 0.25)
     if mu_s == 0.0:
         return None
-    path = well_of(cfg, system)
+    path = well_of(cfg, system) if path is None else path
     n, r = node_contact(path, system.sections, model.element_lengths_m,
                         system.mud_density_kg_m3, weight_on_bit_N)
     nodes = len(model.element_lengths_m) + 1
@@ -127,6 +131,6 @@ def string_weight_N(scenario, mud_density_kg_m3: float | None = None) -> float:
         return system.buoyed_weight_N(mud_density_kg_m3)
     mud = system.mud_density_kg_m3 if mud_density_kg_m3 is None else mud_density_kg_m3
     system.buoyed_weight_N(mud)                  # the same checks of the mud
-    path = well_of(scenario.raw, system)
+    path = scenario_well(scenario)
     length = min(system.total_length_m, path.total_depth_m)
     return torque_drag(path, system.sections, length, 0.0, ROTATING, mud).hook_load_N
