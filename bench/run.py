@@ -765,6 +765,17 @@ def _node_process(executable, env, *params):
                             stderr=subprocess.DEVNULL)
 
 
+def _stop_processes(*procs, timeout_s=10):
+    """SIGINT to every node process, then wait for each (killed after ``timeout_s``)."""
+    for proc in procs:
+        proc.send_signal(2)
+    for proc in procs:
+        try:
+            proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
 def _rss_mb(pid):
     with open(f'/proc/{pid}/status') as f:
         for line in f:
@@ -824,13 +835,7 @@ def bench_realtime_under_load(smoke):
         end_diag = time.monotonic() + 3   # the 1 Hz diagnostics after the window
         while time.monotonic() < end_diag:
             ex.spin_once(timeout_sec=0.05)
-        for proc in (twin, ctrl):
-            proc.send_signal(2)
-        for proc in (twin, ctrl):
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        _stop_processes(twin, ctrl)
         hog.kill()
         ex.shutdown()
         probe.destroy_node()
@@ -1012,9 +1017,11 @@ def bench_opcua(smoke):
         import threading
         spinning = threading.Event()
         spinning.set()
-        thread = threading.Thread(target=lambda: [ex.spin_once(timeout_sec=0.05)
-                                                  for _ in iter(spinning.is_set, False)],
-                                  daemon=True)
+
+        def spin():
+            while spinning.is_set():
+                ex.spin_once(timeout_sec=0.05)
+        thread = threading.Thread(target=spin, daemon=True)
         thread.start()
         try:
             if not _wait_port(port, bridge):
@@ -1028,23 +1035,12 @@ def bench_opcua(smoke):
         finally:
             spinning.clear()
             thread.join(5)
-            for proc in (bridge, twin):
-                proc.send_signal(2)
-            for proc in (bridge, twin):
-                try:
-                    proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
+            _stop_processes(bridge, twin)
             ex.shutdown()
             probe.destroy_node()
             rclpy.shutdown(context=ctx)
             _restore_environ(saved)
     lat = _reaction_ms(sinks[0].values, toggles, 0.5 * kp * step)
-    if os.environ.get('DRILL_TWIN_BENCH_DEBUG'):
-        late = [round(t - start, 2) for (t, _), v in zip(toggles, lat) if v > 30]
-        print('latency percentiles 50/90/95/98/99/max:',
-              np.percentile(lat, [50, 90, 95, 98, 99, 100]).round(1), 'over 30 ms at', late,
-              file=sys.stderr)
     ok = lat.size > 0 and np.percentile(lat, 99) < 20.0
     row('opcua', 'set-point write -> first measurement reflecting it (p50/p99)',
         f'{np.percentile(lat, 50):.1f}/{np.percentile(lat, 99):.1f}' if lat.size else 'none',
