@@ -275,6 +275,9 @@ WELL = Section('well', 'the well path (SI; absent: a vertical well to the string
          'coefficient μ_s of the dynamics)', '1', 2.0, 0.25, low=0.0, open_low=False),
     _pos('dynamic_friction_ratio', 'sliding over static friction coefficient μ_d/μ_s of the '
          'dynamics', '1', 1.0, 1.0, open_low=True),
+    _pos('stribeck_speed_m_s', 'sliding speed over which the friction falls from the static '
+         'to the dynamic coefficient, μ_d + (μ_s - μ_d) exp(-v/v_S) (docs/physics.md eq. 9.9; '
+         '0: at once, the two-level law)', 'm/s', 10.0, 0.0, open_low=False),
     _pos('mud_damping_N_s_m2', "the mud's viscous drag on the string per unit length and unit "
          'sliding speed (axially c, torsionally c r²)', 'N*s/m^2', 1e5, 0.0, open_low=False),
 ))

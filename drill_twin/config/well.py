@@ -118,7 +118,8 @@ def wall_of(cfg: dict, system, model, scales, weight_on_bit_N: float = 0.0,
     nodes = len(model.element_lengths_m) + 1
     return pack_wall(n, r, mu_s, mu_s * well.get('dynamic_friction_ratio', 1.0),
                      model.axial.mass[1], model.torsional.mass[1],
-                     nodes - model.axial.n, nodes - model.torsional.n, scales)
+                     nodes - model.axial.n, nodes - model.torsional.n, scales,
+                     well.get('stribeck_speed_m_s', 0.0))
 
 
 def string_weight_N(scenario, mud_density_kg_m3: float | None = None) -> float:

@@ -37,6 +37,7 @@ function's end).  Every index into them is a name of :mod:`drill_twin.physics.la
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -80,7 +81,7 @@ from .layout import (
     state_layout,
 )
 from .time_history import push_sample, sample_at_time
-from .wall_law import project_node
+from .wall_law import project_node, sliding_friction
 
 __all__ = ['Law', 'Top', 'Model', 'State', 'Recording', 'advance', 'snapshot', 'rhs',
            'RECORD_CHANNELS']
@@ -730,11 +731,12 @@ def _step(tau, h, m, s, work):
 @kernel_jit
 def _wall(h, m, s):
     """The wall's friction impulse of a step of size ``h`` on every node of ``m.wall``
-    (docs/physics.md §9, eqs 9.4-9.8; the bit node only while no blade is on the rock):
-    the node's total velocity (axial, and rim speed ρ ω)
-    is projected by :func:`~drill_twin.physics.wall_law.project_node`, and its position
-    moves by half a step of the velocity change (the trapezoidal rule of the impulse's
-    constant force: a stuck node does not creep)."""
+    (docs/physics.md §9, eqs 9.4-9.9; the bit node only while no blade is on the rock):
+    the node's total velocity (axial, and rim speed ρ ω), with the sliding friction at the
+    speed of the step's start (eq. 9.9), is projected by
+    :func:`~drill_twin.physics.wall_law.project_node`, and its position moves by half a
+    step of the velocity change (the trapezoidal rule of the impulse's constant force: a
+    stuck node does not creep)."""
     na = m.axial.shape[1]
     L = state_layout(na, m.torsional.shape[1])
     wall, x, contact = m.wall, s.x, s.wall
@@ -748,10 +750,12 @@ def _wall(h, m, s):
         rho = wall[WALL.radius, j]
         m_a = wall[WALL.axial_mass, j]
         m_t = wall[WALL.tangential_mass, j]
-        slide = h * wall[WALL.dynamic, j]
-        hold = h * wall[WALL.static, j] if contact[j] == CONTACT.stick else slide
         y_a = upsilon_o + x[L.v + ia]
         y_t = rho * (omega_o + x[L.omega + it])
+        static = wall[WALL.static, j]
+        slide = h * sliding_friction(static, wall[WALL.dynamic, j], wall[WALL.stribeck, j],
+                                     math.sqrt(y_a * y_a + y_t * y_t))
+        hold = h * static if contact[j] == CONTACT.stick else slide
         new_a, new_t, stuck = project_node(m_a * y_a, m_t * y_t, m_a, m_t, hold, slide)
         contact[j] = CONTACT.stick if stuck else CONTACT.slide
         if stuck:               # exactly at rest: total velocity zero

@@ -103,10 +103,12 @@ START = indices('Start', ('position', 'velocity', 'angle', 'speed', 'pending'))
 #: rows of the wall-contact array (one column per string node that touches the wall,
 #: :mod:`~drill_twin.physics.wall_contact`): the node's axial and torsional DOF, its static
 #: and dynamic friction capacity μ_s n, μ_d n (axial force units M d*/t*²), its contact
-#: radius ρ = r/d*, and the masses of its sliding velocity (axial lumped mass; tangential
-#: mass κ m_t/ρ², κ = C t*²/(M d*²)) — docs/physics.md §9
+#: radius ρ = r/d*, the masses of its sliding velocity (axial lumped mass; tangential
+#: mass κ m_t/ρ², κ = C t*²/(M d*²)), and the Stribeck speed v_S/(d*/t*) over which the
+#: sliding friction falls from the static to the dynamic level (0: at once) —
+#: docs/physics.md §9
 WALL = indices('Wall', ('axial_dof', 'torsional_dof', 'static', 'dynamic', 'radius',
-                        'axial_mass', 'tangential_mass'))
+                        'axial_mass', 'tangential_mass', 'stribeck'))
 #: values of the per-node wall state (int array): the node slides, or sticks to the wall
 CONTACT = indices('Contact', ('slide', 'stick'))
 #: the run's clock: time and the accumulated time with the bit stuck angularly [t*]

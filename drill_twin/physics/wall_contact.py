@@ -108,7 +108,7 @@ def rim_inertia_factor(scales) -> float:
 
 def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: float,
               axial_mass, torsional_mass, axial_offset: int, torsional_offset: int,
-              scales) -> np.ndarray:
+              scales, stribeck_speed_m_s: float = 0.0) -> np.ndarray:
     """The kernel's wall array (:data:`~drill_twin.physics.layout.WALL` rows, one column
     per node in contact) of a mesh whose node k is axial DOF ``k - axial_offset`` and
     torsional DOF ``k - torsional_offset``.
@@ -125,8 +125,14 @@ def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: floa
         Eliminated top nodes of each chain (0 or 1).
     scales : Scales
         Eq. 2.4.1 (t*, d*, C, M).
+    stribeck_speed_m_s : float
+        v_S [m/s] of eq. 9.9, the sliding speed over which the friction falls from μ_s to
+        μ_d (0: at once).
     """
     mu_s, mu_d = float(static_friction), float(dynamic_friction)
+    v_s = float(stribeck_speed_m_s)
+    if not (math.isfinite(v_s) and v_s >= 0.0):
+        raise ParameterError(f'the Stribeck speed must be finite and >= 0 m/s, not {v_s:g}')
     if not (math.isfinite(mu_s) and math.isfinite(mu_d) and 0.0 <= mu_d <= mu_s):
         raise ParameterError(f'wall friction needs 0 <= dynamic ({mu_d:g}) <= static '
                              f'({mu_s:g}) coefficient')
@@ -145,4 +151,5 @@ def pack_wall(normal_N, radius_m, static_friction: float, dynamic_friction: floa
         out[WALL.radius, j] = rho
         out[WALL.axial_mass, j] = axial_mass[ia]
         out[WALL.tangential_mass, j] = kappa * torsional_mass[it] / rho ** 2
+        out[WALL.stribeck, j] = v_s * scales.time_s / scales.depth_m
     return out

@@ -25,7 +25,12 @@ whose one solution is (eqs 9.6-9.7)
 
 Static and dynamic friction: a node that stuck at the end of the previous step is
 held while |p| ≤ h μ_s n (the static capacity); once it slides, the impulse is
-h μ_d n.  Everything here is compiled (numba), scalars in and out.
+h μ(|y|) n with the sliding coefficient of eq. 9.9, μ(v) = μ_d + (μ_s - μ_d) exp(-v/v_S)
+(Stribeck's velocity weakening over the speed v_S; v_S = 0: μ_d at once, the two-level
+law), taken at the speed of the step's start: the magnitude explicit, the direction and
+the stick implicit, first order like the scheme.  At v = 0 the law is μ_s, the static
+capacity: the stick set is the same disc for every v_S, and no speed below which a node
+counts as stuck exists.  Everything here is compiled (numba), scalars in and out.
 """
 from __future__ import annotations
 
@@ -33,7 +38,7 @@ import math
 
 from .jit import kernel_jit
 
-__all__ = ['project_node']
+__all__ = ['project_node', 'sliding_friction', 'sliding_friction_slope']
 
 
 @kernel_jit(inline='always')
@@ -76,3 +81,29 @@ def project_node(p_a, p_t, m_a, m_t, hold, slide):
         if not abs(step) > 1e-15 * s:
             break
     return p_a * s / (m_a * s + slide), p_t * s / (m_t * s + slide), False
+
+
+@kernel_jit(inline='always')
+def sliding_friction(static, dynamic, stribeck, speed):
+    """The sliding friction force F(v) = F_d + (F_s - F_d) exp(-v/v_S) of a node sliding at
+    ``speed`` v (eq. 9.9); F_d when ``stribeck`` v_S is 0 (the two-level law).
+
+    Parameters
+    ----------
+    static, dynamic : float
+        μ_s n and μ_d n (force units, F_d ≤ F_s).
+    stribeck : float
+        v_S ≥ 0, the speed over which the friction weakens (velocity units).
+    speed : float
+        v = |y| ≥ 0.
+    """
+    if stribeck > 0.0:
+        return dynamic + (static - dynamic) * math.exp(-speed / stribeck)
+    return dynamic
+
+
+def sliding_friction_slope(static, dynamic, stribeck, speed):
+    """dF/dv of eq. 9.9 at ``speed`` (the linearisation's velocity dependence; ≤ 0)."""
+    if stribeck > 0.0:
+        return -(static - dynamic) / stribeck * math.exp(-speed / stribeck)
+    return 0.0

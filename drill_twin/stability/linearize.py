@@ -51,17 +51,19 @@ and ``T_m`` enters the motor row ``φ''_0``.  ``r`` and ``T_s`` are two scalars,
 The wall's friction in a deviated well (docs/physics.md §9.9)
 ------------------------------------------------------------
 Steady drilling slides every node on the wall with y_o = (υ_o, ρ ω_o) (axial, rim speed).
-The friction -F y/|y| has a constant part, which only moves the steady state (the elastic
-chains are linear: the twist and stretch it needs do not enter the perturbation), and a
-velocity dependence, which does: its Jacobian at y_o is -(F/|y_o|)(I - ŷŷᵀ), ŷ = y_o/|y_o|,
-a damping block per node on (δu', ρ δφ'),
+The friction -F(|y|) y/|y| (F of eq. 9.9) has a constant part, which only moves the steady
+state (the elastic chains are linear: the twist and stretch it needs do not enter the
+perturbation), and a velocity dependence, which does: its Jacobian at y_o is
+-(F/|y_o|)(I - ŷŷᵀ) - F'(|y_o|) ŷŷᵀ, ŷ = y_o/|y_o|, a damping block per node on
+(δu', ρ δφ'); with the two-level law (F' = 0)
 
     δf_a = -(F/|y_o|)(ŷ_t² δu' - ŷ_a ŷ_t ρ δφ'),
     δτ   = -(F ρ/κ |y_o|)(-ŷ_a ŷ_t δu' + ŷ_a² ρ δφ')      (torque: units C, κ of §9.3)
 
 — rotation turns the axial Coulomb drag into a viscous one, F/(ρ ω_o) per node when
-υ_o ≪ ρ ω_o, while the torsional part is second order in υ_o/(ρ ω_o).  The bit node is
-left out, as in the kernel while a blade is on the rock.
+υ_o ≪ ρ ω_o, while the torsional part is second order in υ_o/(ρ ω_o).  Stribeck's
+weakening (F' < 0) adds -F' along ŷ: a negative damping, mostly torsional.  The bit node
+is left out, as in the kernel while a blade is on the rock.
 """
 from __future__ import annotations
 
@@ -73,6 +75,7 @@ from ..physics.layout import TRIPLE, WALL, indices, state_layout
 from ..physics.models import StringModel
 from ..physics.parameters import BitRockGroups
 from ..physics.wall_contact import rim_inertia_factor
+from ..physics.wall_law import sliding_friction, sliding_friction_slope
 
 #: a motor drive's states, appended to the linear state ``[u, u', φ, φ']`` (the kernel's
 #: drive block also holds the prescribed angle, speed and block, which are not states of
@@ -195,14 +198,18 @@ def _add_wall_damping(A0, wall, kappa, groups, L, Ma_inv, Mt_inv):
         ia, it = int(wall[WALL.axial_dof, j]), int(wall[WALL.torsional_dof, j])
         if ia == na - 1:
             continue                         # the bit: its own law while on bottom
-        rho, F = wall[WALL.radius, j], wall[WALL.dynamic, j]
+        rho = wall[WALL.radius, j]
         ya, yt = groups.upsilon_o, rho * groups.omega_o
         speed = float(np.hypot(ya, yt))
+        law = (wall[WALL.static, j], wall[WALL.dynamic, j], wall[WALL.stribeck, j], speed)
+        F, dF = sliding_friction.py_func(*law), sliding_friction_slope(*law)
         ca, ct = ya / speed, yt / speed
         g = F / speed
+        # ∂f/∂y of f = -F(|y|) y/|y|: -(F/|y|)(I - c cᵀ) - F'(|y|) c cᵀ, c = y/|y|
+        jaa, jat, jtt = -g * ct * ct - dF * ca * ca, (g - dF) * ca * ct, -g * ca * ca - dF * ct * ct
         # force on the axial DOF and torque on the torsional DOF per unit δu', δφ'
-        faa, fat = -g * ct * ct, g * ca * ct * rho
-        tta, ttt = g * rho / kappa * ca * ct, -g * rho / kappa * ca * ca * rho
+        faa, fat = jaa, jat * rho
+        tta, ttt = jat * rho / kappa, jtt * rho / kappa * rho
         A0[L.v:L.v + na, L.v + ia] += Ma_inv[:, ia] * faa
         A0[L.v:L.v + na, L.omega + it] += Ma_inv[:, ia] * fat
         A0[L.omega:L.omega + nt, L.v + ia] += Mt_inv[:, it] * tta
