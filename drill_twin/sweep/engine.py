@@ -52,6 +52,8 @@ WORKERS_PER_CORE = 4
 CONNECT_TIMEOUT_S = 5.0
 #: seconds for a scheduler to greet (Dask's listener writes its handshake at once)
 GREETING_TIMEOUT_S = 5.0
+#: longest the greeting's read blocks at once [s] (the process answers a signal that often)
+GREETING_SLICE_S = 0.1
 #: a greeting's length prefix above this [bytes] is not Dask's handshake (~200 bytes)
 MAX_GREETING_BYTES = 2 ** 20
 #: seconds for Dask's client to connect, and to close a client or a local cluster
@@ -287,20 +289,34 @@ def _greeting(host: str, port: int, address: str) -> None:
         raise ParameterError(f'no Dask scheduler at {address}: '
                              f'{exc.strerror or exc or type(exc).__name__}') from None
     with sock:
-        sock.settimeout(GREETING_TIMEOUT_S)
-        head = b''
-        with contextlib.suppress(OSError):
-            while len(head) < 8:
-                chunk = sock.recv(8 - len(head))
-                if not chunk:
-                    break
-                head += chunk
+        head = _read_greeting(sock)
     length = struct.unpack('<Q', head)[0] if len(head) == 8 else 0
     if not 0 < length <= MAX_GREETING_BYTES:
         said = f'answered {head[:8]!r}' if head else \
             f'said nothing within {GREETING_TIMEOUT_S:g} s'
         raise ParameterError(f'{address} is not a Dask scheduler (a server there {said}, '
                              "not Dask's handshake)")
+
+
+def _read_greeting(sock) -> bytes:
+    """Up to 8 bytes from ``sock`` within :data:`GREETING_TIMEOUT_S`, read in slices of
+    :data:`GREETING_SLICE_S`: a signal that the kernel hands to another thread of the
+    process (Dask's or numba's) does not wake a blocked ``recv``, so the main thread comes
+    back to Python — and to the signal's handler — at least every slice."""
+    deadline = time.monotonic() + GREETING_TIMEOUT_S
+    sock.settimeout(GREETING_SLICE_S)
+    head = b''
+    while len(head) < 8 and time.monotonic() < deadline:
+        try:
+            chunk = sock.recv(8 - len(head))
+        except TimeoutError:
+            continue
+        except OSError:
+            break
+        if not chunk:
+            break
+        head += chunk
+    return head
 
 
 class _DaskClient:
