@@ -6,12 +6,14 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.drill_twin-installed
 REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirements/constraints.txt requirements/bootstrap.txt setup.py setup.cfg pyproject.toml
-# the locked install: uv (pinned in requirements/bootstrap.txt, ~5 s for the whole set
-# against pip's ~50 s), pip itself if uv cannot (an index only pip.conf knows, no uv wheel)
+# the locked install: uv (pinned in requirements/bootstrap.txt, ~12 s for the whole set
+# against pip's ~50 s), pip itself if uv cannot (an index only pip.conf knows, no uv wheel).
+# --compile-bytecode as pip does: where PYTHONDONTWRITEBYTECODE is set, a package installed
+# without its .pyc is compiled from source by every process that imports it
 LOCKED := -c requirements/constraints.txt -r requirements/base.txt -r requirements/ros.txt -r requirements/dev.txt
 define install
 	{ $(PY) -m pip install -q -r requirements/bootstrap.txt && \
-	  $(VENV)/bin/uv pip install -q --native-tls --python $(PY) $(1); } || \
+	  $(VENV)/bin/uv pip install -q --native-tls --compile-bytecode --python $(PY) $(1); } || \
 	{ echo "make venv: uv could not install, pip does (slower)"; $(PY) -m pip install -q $(1); }
 endef
 
