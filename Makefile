@@ -12,8 +12,7 @@ REQS := requirements/base.txt requirements/ros.txt requirements/dev.txt requirem
 # without its .pyc is compiled from source by every process that imports it
 LOCKED := -c requirements/constraints.txt -r requirements/base.txt -r requirements/ros.txt -r requirements/dev.txt
 define install
-	{ $(PY) -m pip install -q -r requirements/bootstrap.txt && \
-	  $(VENV)/bin/uv pip install -q --native-tls --compile-bytecode --python $(PY) $(1); } || \
+	$(VENV)/bin/uv pip install -q --native-tls --compile-bytecode --python $(PY) $(1) || \
 	{ echo "make venv: uv could not install, pip does (slower)"; $(PY) -m pip install -q $(1); }
 endef
 
@@ -31,6 +30,7 @@ venv: $(STAMP)
 $(STAMP): $(REQS)
 	@echo "make venv: installing the locked dependencies into $(VENV) (first time: under a minute with uv, 2-4 min with pip; later only when a requirement file changed)"
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q -r requirements/bootstrap.txt || echo "make venv: no uv wheel"
 	$(call install,$(LOCKED))
 	$(call install,--no-deps -e .)
 	@echo "make venv: dependencies installed"

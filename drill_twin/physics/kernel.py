@@ -752,9 +752,9 @@ def _wall(h, m, s):
         m_t = wall[WALL.tangential_mass, j]
         y_a = upsilon_o + x[L.v + ia]
         y_t = rho * (omega_o + x[L.omega + it])
-        static = wall[WALL.static, j]
-        slide = h * sliding_friction(static, wall[WALL.dynamic, j], wall[WALL.stribeck, j],
-                                     math.sqrt(y_a * y_a + y_t * y_t))
+        static, stribeck = wall[WALL.static, j], wall[WALL.stribeck, j]
+        speed = math.sqrt(y_a * y_a + y_t * y_t) if stribeck > 0.0 else 0.0  # unused at 0
+        slide = h * sliding_friction(static, wall[WALL.dynamic, j], stribeck, speed)
         hold = h * static if contact[j] == CONTACT.stick else slide
         new_a, new_t, stuck = project_node(m_a * y_a, m_t * y_t, m_a, m_t, hold, slide)
         contact[j] = CONTACT.stick if stuck else CONTACT.slide

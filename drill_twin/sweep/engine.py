@@ -300,9 +300,9 @@ def _greeting(host: str, port: int, address: str) -> None:
 
 def _read_greeting(sock) -> bytes:
     """Up to 8 bytes from ``sock`` within :data:`GREETING_TIMEOUT_S`, read in slices of
-    :data:`GREETING_SLICE_S`: a signal that the kernel hands to another thread of the
-    process (Dask's or numba's) does not wake a blocked ``recv``, so the main thread comes
-    back to Python — and to the signal's handler — at least every slice."""
+    :data:`GREETING_SLICE_S`, so that the main thread is back in Python — where a pending
+    signal's handler runs — at least every slice, also for a signal that did not interrupt
+    the ``recv`` itself (one delivered to another thread, or while unblocking)."""
     deadline = time.monotonic() + GREETING_TIMEOUT_S
     sock.settimeout(GREETING_SLICE_S)
     head = b''
